@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# README command 2: install dependencies, build, and run the whole test suite through CTest.
+#   bash scripts/test.sh              Release build in ./build
+#   bash scripts/test.sh --sanitize   AddressSanitizer + UndefinedBehaviorSanitizer in ./build-asan
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+jobs=$(nproc)
+if [ "${1:-}" = "--sanitize" ]; then
+    dir=build-asan
+    flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTRATA_SANITIZE=ON)
+    export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
+    export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+else
+    dir=build
+    flags=(-DCMAKE_BUILD_TYPE=Release)
+fi
+cmake -S . -B "$dir" -DSTRATA_BUILD_TESTS=ON -DSTRATA_WERROR=ON "${flags[@]}" >/dev/null
+cmake --build "$dir" -j"$jobs"
+ctest --test-dir "$dir" --output-on-failure -j"$jobs"

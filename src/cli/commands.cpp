@@ -1,0 +1,385 @@
+#include "cli/commands.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "contours/contour_stats.h"
+#include "core/atomic_write.h"
+#include "core/error.h"
+#include "core/report.h"
+#include "debug/draw_contours.h"
+#include "input/read_slice_stack.h"
+#include "input/write_nifti.h"
+#include "input/write_slice_stack.h"
+#include "phantom/catalogue.h"
+#include "pipeline/reconstruct.h"
+
+namespace strata::cli {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+using Clock = std::chrono::steady_clock;
+
+/// Progress on a terminal: one line on stderr rewritten in place, at most ~10 times a second.
+class TerminalProgress {
+public:
+    explicit TerminalProgress(bool quiet) : enabled_(!quiet && ::isatty(STDERR_FILENO) != 0) {}
+    ~TerminalProgress() { finish(); }
+
+    ProgressFn callback() {
+        if (!enabled_) {
+            return {};
+        }
+        return [this](std::string_view what, std::size_t done, std::size_t total) {
+            const auto now = Clock::now();
+            if (done < total && now - last_ < std::chrono::milliseconds(100)) {
+                return;
+            }
+            last_ = now;
+            std::fprintf(stderr, "\rstrata: %.*s %zu/%zu", static_cast<int>(what.size()),
+                         what.data(), done, total);
+            std::fflush(stderr);
+            open_ = true;
+        };
+    }
+    void finish() {
+        if (open_) {
+            std::fputc('\n', stderr);
+            open_ = false;
+        }
+    }
+
+private:
+    bool enabled_;
+    bool open_ = false;
+    Clock::time_point last_{};
+};
+
+struct LabelStats {
+    std::uint64_t voxels = 0;
+    std::uint32_t first_slice = 0;
+    std::uint32_t last_slice = 0;
+    std::uint32_t slices = 0;
+};
+
+std::vector<LabelStats> label_stats(const SliceStack& stack) {
+    std::vector<int> index(65536, -1);
+    for (std::size_t i = 0; i < stack.label_table.size(); ++i) {
+        index[stack.label_table[i].value] = static_cast<int>(i);
+    }
+    std::vector<LabelStats> stats(stack.label_table.size());
+    std::vector<std::uint32_t> last_seen(stats.size(), UINT32_MAX);
+    for (std::uint32_t k = 0; k < stack.depth; ++k) {
+        for (std::uint16_t v : stack.slice(k)) {
+            const int l = index[v];
+            if (l < 0) {
+                continue;
+            }
+            LabelStats& s = stats[l];
+            if (s.voxels == 0) {
+                s.first_slice = k;
+            }
+            ++s.voxels;
+            if (last_seen[l] != k) {
+                last_seen[l] = k;
+                s.last_slice = k;
+                ++s.slices;
+            }
+        }
+    }
+    return stats;
+}
+
+Json stack_json(const SliceStack& stack) {
+    Json j;
+    j["source"] = stack.source;
+    j["source_frame"] = stack.source_frame;
+    j["dims"] = {stack.width, stack.height, stack.depth};
+    const Vec3 spacing = stack.spacing_mm();
+    j["spacing_mm"] = {spacing.x, spacing.y, spacing.z};
+    Json affine = Json::array();
+    for (int r = 0; r < 3; ++r) {
+        const auto& row = stack.index_to_world.linear[r];
+        affine.push_back({row[0], row[1], row[2], stack.index_to_world.translation[r]});
+    }
+    affine.push_back({0, 0, 0, 1});
+    j["index_to_world_lps_mm"] = affine;
+    const double voxel_ml = spacing.x * spacing.y * spacing.z / 1000.0;
+    const std::vector<LabelStats> stats = label_stats(stack);
+    Json labels = Json::array();
+    for (std::size_t i = 0; i < stack.label_table.size(); ++i) {
+        const LabelInfo& l = stack.label_table[i];
+        Json e;
+        e["value"] = l.value;
+        e["name"] = l.name;
+        e["color_srgb"] = {l.color[0], l.color[1], l.color[2]};
+        e["voxels"] = stats[i].voxels;
+        e["slices"] = stats[i].slices;
+        e["first_slice"] = stats[i].first_slice;
+        e["last_slice"] = stats[i].last_slice;
+        e["volume_ml"] = static_cast<double>(stats[i].voxels) * voxel_ml;
+        labels.push_back(e);
+    }
+    j["labels"] = labels;
+    return j;
+}
+
+Json warnings_json(const Report& report) {
+    Json w = Json::array();
+    for (const Warning& warning : report.warnings) {
+        w.push_back(
+            {{"stage", warning.stage}, {"where", warning.where}, {"message", warning.message}});
+    }
+    return w;
+}
+
+std::string format_vec(Vec3 v) {
+    char buf[96];
+    std::snprintf(buf, sizeof(buf), "%g x %g x %g", v.x, v.y, v.z);
+    return buf;
+}
+
+void print_stack(std::ostream& out, const SliceStack& stack) {
+    out << "input:   " << stack.source << " (frame " << stack.source_frame << ")\n";
+    out << "dims:    " << stack.width << " x " << stack.height << " x " << stack.depth << '\n';
+    out << "spacing: " << format_vec(stack.spacing_mm()) << " mm\n";
+    out << "affine (voxel index -> LPS mm):\n";
+    for (int r = 0; r < 3; ++r) {
+        char buf[160];
+        const auto& row = stack.index_to_world.linear[r];
+        std::snprintf(buf, sizeof(buf), "  [%10.5g %10.5g %10.5g | %10.5g]\n", row[0], row[1],
+                      row[2], stack.index_to_world.translation[r]);
+        out << buf;
+    }
+    const std::vector<LabelStats> stats = label_stats(stack);
+    const Vec3 spacing = stack.spacing_mm();
+    const double voxel_ml = spacing.x * spacing.y * spacing.z / 1000.0;
+    out << "labels:  " << stack.label_table.size() << '\n';
+    for (std::size_t i = 0; i < stack.label_table.size(); ++i) {
+        const LabelInfo& l = stack.label_table[i];
+        char buf[256];
+        std::snprintf(buf, sizeof(buf),
+                      "  %5u  %-32s  #%02x%02x%02x  %9llu voxels  slices %u-%u  %.2f mL\n",
+                      unsigned(l.value), l.name.c_str(), l.color[0], l.color[1], l.color[2],
+                      static_cast<unsigned long long>(stats[i].voxels), stats[i].first_slice,
+                      stats[i].last_slice, static_cast<double>(stats[i].voxels) * voxel_ml);
+        out << buf;
+    }
+}
+
+void print_warnings(std::ostream& out, const Report& report) {
+    for (const Warning& w : report.warnings) {
+        out << "strata: warning: " << w.stage << ": " << w.where << ": " << w.message << '\n';
+    }
+}
+
+double seconds_since(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+Vec3 parse_spacing(const std::string& text) {
+    Vec3 v;
+    std::istringstream in(text);
+    std::string part;
+    int n = 0;
+    while (std::getline(in, part, ',')) {
+        if (n == 3) {
+            n = 4;
+            break;
+        }
+        std::size_t used = 0;
+        double value = 0;
+        try {
+            value = std::stod(part, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used == 0 || used != part.size()) {
+            throw Error(ErrorCode::InvalidInput, "--spacing: '" + part +
+                                                     "' is not a number; expected X,Y,Z in mm, "
+                                                     "e.g. 0.7,0.7,5");
+        }
+        v[n++] = value;
+    }
+    if (n != 3) {
+        throw Error(ErrorCode::InvalidInput,
+                    "--spacing: '" + text + "' expected three values X,Y,Z in mm, e.g. 0.7,0.7,5");
+    }
+    check_spacing(v, "--spacing");
+    return v;
+}
+
+int run_build(const BuildOptions& options) {
+    const auto start = Clock::now();
+    Report report;
+    SliceStack stack;
+    TerminalProgress progress(options.output.quiet || options.output.json);
+    if (options.input.empty()) {
+        stack = make_phantom(options.phantom).stack;
+        if (options.spacing_mm) {
+            override_spacing(stack, *options.spacing_mm);
+        }
+    } else {
+        ReadOptions read;
+        read.spacing_mm = options.spacing_mm;
+        read.color_table = options.color_table;
+        read.progress = progress.callback();
+        stack = read_slice_stack(options.input, read, report);
+    }
+    progress.finish();
+    if (!options.labels.empty()) {
+        select_labels(stack, options.labels);
+    }
+    const double input_seconds = seconds_since(start);
+
+    ReconstructOptions reconstruct_options;
+    reconstruct_options.contours.tolerance_px = options.tolerance_px;
+    reconstruct_options.contours.threads = options.threads;
+    reconstruct_options.progress = progress.callback();
+    const Reconstruction result = reconstruct(stack, reconstruct_options, report);
+    progress.finish();
+
+    if (!options.debug_dir.empty()) {
+        const int scale = debug_scale(stack.width, stack.height);
+        for (std::uint32_t k = 0; k < stack.depth; ++k) {
+            char name[48];
+            std::snprintf(name, sizeof(name), "contours_%04u.png", k);
+            write_rgb_png(draw_slice_contours(stack, result.contours, k, scale),
+                          options.debug_dir / name);
+        }
+    }
+
+    Json summary;
+    summary["strata_version"] = "0.1.0";
+    summary["input"] = stack_json(stack);
+    const std::vector<LabelContourStats> stats = contour_stats(result.contours);
+    Json objects = Json::array();
+    for (const LabelInfo& label : stack.label_table) {
+        Json o;
+        o["label"] = label.value;
+        o["name"] = label.name;
+        const auto it = std::find_if(stats.begin(), stats.end(), [&](const LabelContourStats& s) {
+            return s.label == label.value;
+        });
+        const LabelContourStats s = it != stats.end() ? *it : LabelContourStats{};
+        o["contours"] = {{"contours", s.contours},
+                         {"holes", s.holes},
+                         {"slices", s.slices},
+                         {"max_nesting_depth", s.max_depth},
+                         {"points_original", s.points_original},
+                         {"points_simplified", s.points_simplified},
+                         {"max_deviation_px", s.max_deviation_px},
+                         {"tolerance_px", result.contours.tolerance_px},
+                         {"links", s.links},
+                         {"hole_links", s.hole_links}};
+        objects.push_back(o);
+    }
+    summary["objects"] = objects;
+    summary["output_dir"] = options.output_dir.string();
+    Json timings = {{"input", input_seconds}};
+    for (const StageTiming& t : result.timings) {
+        timings[t.stage] = t.seconds;
+    }
+    summary["timings_s"] = timings;
+    summary["warnings"] = warnings_json(report);
+    const std::filesystem::path summary_file = options.output_dir / "summary.json";
+    write_file_atomically(summary_file, summary.dump(2) + "\n");
+
+    if (options.output.json) {
+        std::cout << summary.dump(2) << '\n';
+    } else if (!options.output.quiet) {
+        print_stack(std::cout, stack);
+        std::cout << "contours (tolerance " << result.contours.tolerance_px << " px):\n";
+        for (const LabelContourStats& s : stats) {
+            char buf[256];
+            std::snprintf(buf, sizeof(buf),
+                          "  %5u  %6u contours (%u holes) on %u slices, %llu -> %llu points, "
+                          "max deviation %.3f px\n",
+                          unsigned(s.label), s.contours, s.holes, s.slices,
+                          static_cast<unsigned long long>(s.points_original),
+                          static_cast<unsigned long long>(s.points_simplified), s.max_deviation_px);
+            std::cout << buf;
+        }
+        std::cout << "timings: input " << input_seconds << " s";
+        for (const StageTiming& t : result.timings) {
+            std::cout << ", " << t.stage << ' ' << t.seconds << " s";
+        }
+        std::cout << "\nwrote " << summary_file.string() << '\n';
+    }
+    if (!options.output.quiet) {
+        print_warnings(std::cerr, report);
+    }
+    return 0;
+}
+
+int run_phantom(const PhantomCommandOptions& options) {
+    if (options.list) {
+        for (const std::string& name : phantom_names()) {
+            std::cout << name << '\n';
+        }
+        return 0;
+    }
+    PhantomOptions phantom_options;
+    phantom_options.pixel_mm = options.pixel_mm;
+    phantom_options.slice_spacing_px = options.slice_spacing_px;
+    const Phantom phantom = make_phantom(options.name, phantom_options);
+    std::string written;
+    if (options.format == "nifti") {
+        std::filesystem::path file = options.output;
+        const std::string name = file.filename().string();
+        const bool has_ext = name.ends_with(".nii") || name.ends_with(".nii.gz");
+        if (!has_ext) {
+            file /= phantom.name + ".nii.gz";
+        }
+        write_nifti(phantom.stack, file);
+        written = file.string();
+    } else {
+        write_png_stack(phantom.stack, options.output);
+        written =
+            (options.output / "slices").string() + " + " + (options.output / "meta.json").string();
+    }
+    if (options.output_options.json) {
+        Json j;
+        j["phantom"] = phantom.name;
+        j["description"] = phantom.description;
+        j["written"] = written;
+        j["stack"] = stack_json(phantom.stack);
+        std::cout << j.dump(2) << '\n';
+    } else if (!options.output_options.quiet) {
+        std::cout << phantom.name << ": " << phantom.description << '\n';
+        print_stack(std::cout, phantom.stack);
+        std::cout << "wrote " << written << '\n';
+    }
+    return 0;
+}
+
+int run_info(const InfoOptions& options) {
+    Report report;
+    ReadOptions read;
+    read.spacing_mm = options.spacing_mm;
+    read.color_table = options.color_table;
+    TerminalProgress progress(options.output.quiet || options.output.json);
+    read.progress = progress.callback();
+    const SliceStack stack = read_slice_stack(options.input, read, report);
+    progress.finish();
+    if (options.output.json) {
+        Json j = stack_json(stack);
+        j["warnings"] = warnings_json(report);
+        std::cout << j.dump(2) << '\n';
+    } else if (!options.output.quiet) {
+        print_stack(std::cout, stack);
+        print_warnings(std::cerr, report);
+    }
+    return 0;
+}
+
+}  // namespace strata::cli

@@ -1,0 +1,134 @@
+// The `strata` command: flags -> options, messages and exit codes.
+// Exit codes: 0 ok, 1 internal or I/O failure, 2 bad input or usage.
+
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "cli/commands.h"
+#include "core/error.h"
+
+namespace {
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitBadInput = 2;
+
+int report_error(const std::string& message, int code) {
+    std::cerr << "strata: error: " << message << '\n';
+    return code;
+}
+
+void add_output_flags(CLI::App& app, strata::cli::OutputOptions& output) {
+    app.add_flag("--json", output.json, "Print a machine-readable JSON summary on stdout");
+    app.add_flag("-q,--quiet", output.quiet, "No progress and no text summary");
+}
+
+void add_spacing_flag(CLI::App& app, std::optional<strata::Vec3>& spacing) {
+    app.add_option_function<std::string>(
+           "--spacing",
+           [&spacing](const std::string& text) { spacing = strata::cli::parse_spacing(text); },
+           "Voxel spacing in mm as X,Y,Z, replacing the file's")
+        ->type_name("X,Y,Z");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"strata: error-bounded multiresolution surfaces from stacks of segmented slices"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", "strata 0.1.0");
+
+    strata::cli::BuildOptions build;
+    CLI::App* build_cmd = app.add_subcommand(
+        "build", "Reconstruct surfaces from a label stack (default: the built-in phantom)");
+    build_cmd->add_option("input", build.input,
+                          "Folder of slice images, multi-page TIFF, NIfTI (.nii/.nii.gz) or NRRD "
+                          "(.nrrd/.seg.nrrd/.nhdr); omitted: the built-in phantom");
+    build_cmd
+        ->add_option("--phantom", build.phantom, "Built-in phantom to use when no input is given")
+        ->capture_default_str();
+    build_cmd->add_option("-o,--output", build.output_dir, "Folder for every output")
+        ->capture_default_str();
+    add_spacing_flag(*build_cmd, build.spacing_mm);
+    build_cmd
+        ->add_option("--labels", build.labels,
+                     "Labels to reconstruct, by value or name (comma separated); default all")
+        ->delimiter(',');
+    build_cmd->add_option("--color-table", build.color_table,
+                          "Colour table naming labels: 3D Slicer .ctbl/.txt, ITK-SNAP label "
+                          "description, or JSON {\"value\": \"name\"}");
+    build_cmd->add_option("--debug-dir", build.debug_dir,
+                          "Write debug pictures per slice (contours) into this folder");
+    build_cmd
+        ->add_option("--tolerance", build.tolerance_px,
+                     "Contour simplification tolerance in pixels")
+        ->check(CLI::Range(0.0, 100.0))
+        ->capture_default_str();
+    build_cmd->add_option("--threads", build.threads, "Worker threads (0: all cores)")
+        ->capture_default_str();
+    add_output_flags(*build_cmd, build.output);
+
+    strata::cli::PhantomCommandOptions phantom;
+    CLI::App* phantom_cmd =
+        app.add_subcommand("phantom", "Write a built-in analytic phantom as a label stack");
+    phantom_cmd->add_option("name", phantom.name, "Phantom name (see --list)");
+    phantom_cmd->add_option("-o,--output", phantom.output,
+                            "Output folder (PNG stack + meta.json) or .nii/.nii.gz file");
+    phantom_cmd->add_option("--format", phantom.format, "png or nifti")
+        ->check(CLI::IsMember({"png", "nifti"}))
+        ->capture_default_str();
+    phantom_cmd->add_option("--slice-spacing", phantom.slice_spacing_px,
+                            "Resample at this slice spacing, in pixels (default: the phantom's)");
+    phantom_cmd->add_option("--pixel-mm", phantom.pixel_mm, "Pixel size in mm")
+        ->capture_default_str();
+    phantom_cmd->add_flag("--list", phantom.list, "List the phantom names");
+    add_output_flags(*phantom_cmd, phantom.output_options);
+
+    strata::cli::InfoOptions info;
+    CLI::App* info_cmd = app.add_subcommand("info", "Describe an input stack");
+    info_cmd->add_option("input", info.input, "Input file or folder")->required();
+    add_spacing_flag(*info_cmd, info.spacing_mm);
+    info_cmd->add_option("--color-table", info.color_table, "Colour table naming labels");
+    add_output_flags(*info_cmd, info.output);
+
+    try {
+        try {
+            app.parse(argc, argv);
+        } catch (const CLI::CallForHelp& e) {
+            return app.exit(e);
+        } catch (const CLI::CallForAllHelp& e) {
+            return app.exit(e);
+        } catch (const CLI::CallForVersion& e) {
+            return app.exit(e);
+        } catch (const CLI::ParseError& e) {
+            std::string message = e.what();
+            return report_error(message + " (see `strata --help`)", kExitBadInput);
+        }
+        if (build_cmd->parsed()) {
+            return strata::cli::run_build(build);
+        }
+        if (phantom_cmd->parsed()) {
+            if (!phantom.list && (phantom.name.empty() || phantom.output.empty())) {
+                return report_error("phantom: expected NAME and -o OUTPUT (or --list)",
+                                    kExitBadInput);
+            }
+            return strata::cli::run_phantom(phantom);
+        }
+        if (info_cmd->parsed()) {
+            return strata::cli::run_info(info);
+        }
+        return report_error("no command given (see `strata --help`)", kExitBadInput);
+    } catch (const strata::Error& e) {
+        const bool bad_input = e.code() == strata::ErrorCode::InvalidInput ||
+                               e.code() == strata::ErrorCode::Unsupported;
+        return report_error(e.what(), bad_input ? kExitBadInput : kExitFailure);
+    } catch (const std::bad_alloc&) {
+        return report_error("out of memory", kExitFailure);
+    } catch (const std::exception& e) {
+        return report_error(std::string("internal: ") + e.what(), kExitFailure);
+    }
+}

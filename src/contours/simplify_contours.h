@@ -1,0 +1,60 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "contours/slice_contours.h"
+#include "core/types.h"
+
+namespace strata {
+
+/// Tunables of contour simplification.
+struct SimplifyOptions {
+    double tolerance_px = 0.5;  ///< max distance of an original point from its simplified edge, px
+};
+
+/// Douglas-Peucker simplification of an open polyline in O(n log n) (Hershberger-Snoeyink path
+/// hull; exact textbook Douglas-Peucker for simple chains, up to ties). Returns the indices of
+/// the kept points, strictly increasing, first and last included (empty for empty input). Every
+/// original point lies within `tolerance_px` of the kept segment that replaces it, measured to the
+/// segment (not its line): with tolerance 0.5, a one-pixel-wide spike is kept although it doubles
+/// back along the segment's line. `deviation_px`, if given, receives one entry per kept segment
+/// (kept.size() - 1): the exact largest distance of the original points it replaces, px. Repeated
+/// points and self-intersecting chains are fine (the bound holds; the path hull then may pick other
+/// split points than textbook Douglas-Peucker, and chains doubling back cost O(range) per extra
+/// split). Throws Error{InvalidInput} for a negative or non-finite tolerance or a non-finite point.
+std::vector<std::uint32_t> simplify_polyline(std::span<const Vec2> points,
+                                             double tolerance_px,
+                                             std::vector<double>* deviation_px = nullptr);
+
+/// The same for a closed polyline (the last point connects to the first; not repeated). The
+/// chain is split at point 0 and the point farthest from it, both kept; at least 3 points are
+/// kept (all of them if there are fewer). `deviation_px` gets one entry per kept edge, the last
+/// for the edge from the last kept point back to the first. The result may self-intersect; see
+/// `simplify_contours` for the topology-safe version. Throws as `simplify_polyline`.
+std::vector<std::uint32_t> simplify_closed_polyline(std::span<const Vec2> points,
+                                                    double tolerance_px,
+                                                    std::vector<double>* deviation_px = nullptr);
+
+/// Simplifies all contours of one slice (paper section 3): fills `simplified` and
+/// `edge_deviation_px` of every contour, leaving the rest untouched.
+///
+/// Input: the slice's contours, each closed with at least 3 points; the contours of one label
+/// are simple polygons, pairwise disjoint (as extract_contours makes them); contours of
+/// different labels are independent and may share boundaries.
+/// Guarantees: every original point lies within `options.tolerance_px` of the simplified edge
+/// that replaces it (`edge_deviation_px` holds the exact maxima); each simplified contour is
+/// simple with at least 3 vertices (nonzero area for contours of nonzero area); simplified
+/// contours of the same label neither cross nor touch. Where plain Douglas-Peucker would
+/// break that, original vertices are re-inserted (the farthest point of each offending edge,
+/// then Douglas-Peucker of the two halves) until the contours are clean; the intersection tests
+/// are exact (integer arithmetic on the half-pixel grid, exact predicates otherwise).
+/// Returns the number of vertices re-inserted for topology. Deterministic.
+/// Throws Error{InvalidInput} for a negative or non-finite tolerance, a contour with fewer than
+/// 3 points or a non-finite point, or when the repair reaches original edges that intersect
+/// (the input contours were not simple and disjoint).
+std::size_t simplify_contours(std::vector<Contour>& contours, const SimplifyOptions& options);
+
+}  // namespace strata

@@ -1,0 +1,1190 @@
+// NIfTI-1 and NIfTI-2 label volumes, read and written with zlib only (no libnifti) so that every
+// header field is validated before it is used.
+//
+// Formats: NIfTI-1 (https://nifti.nimh.nih.gov/pub/dist/src/niftilib/nifti1.h) and NIfTI-2
+// (https://nifti.nimh.nih.gov/pub/dist/doc/nifti2.h). World transform as in nifti1.h
+// "METHOD 3 / METHOD 2 / METHOD 1": sform if sform_code > 0, else the qform quaternion with qfac
+// if qform_code > 0, else diag(pixdim); the quaternion <-> matrix formulas follow
+// nifti_quatern_to_mat44 and nifti_mat44_to_quatern of nifti1_io.c. Label names and colours come
+// from a Caret/CIFTI <LabelTable> extension when there is one (TotalSegmentator writes it).
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+#include <zlib.h>
+
+#include "core/atomic_write.h"
+#include "core/error.h"
+#include "input/detail/readers.h"
+#include "input/write_nifti.h"
+
+namespace strata {
+
+namespace {
+
+constexpr std::size_t kNifti1HeaderBytes = 348;
+constexpr std::size_t kNifti2HeaderBytes = 540;
+// note: raw voxel bytes are streamed through a buffer of this size (a multiple of every voxel
+// size), so memory use is bounded by the label images whatever the stored type
+constexpr std::size_t kChunkBytes = std::size_t(1) << 20;
+// Extensions up to this size are read (for a label table); larger gaps before vox_offset are
+// skipped unread.
+constexpr std::uint64_t kMaxExtensionBytes = std::uint64_t(16) << 20;
+
+// ---------------------------------------------------------------------------------------------
+// Small helpers
+
+std::string format_number(double value) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+    return std::string(buffer, result.ptr);
+}
+
+template <typename T>
+T load(const unsigned char* bytes, bool swap) {
+    std::array<unsigned char, sizeof(T)> raw;
+    std::memcpy(raw.data(), bytes, sizeof(T));
+    if (swap) {
+        std::reverse(raw.begin(), raw.end());
+    }
+    return std::bit_cast<T>(raw);
+}
+
+template <typename T>
+void store_le(unsigned char* bytes, T value) {
+    auto raw = std::bit_cast<std::array<unsigned char, sizeof(T)>>(value);
+    if constexpr (std::endian::native == std::endian::big) {
+        std::reverse(raw.begin(), raw.end());
+    }
+    std::memcpy(bytes, raw.data(), sizeof(T));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stored voxel types and their conversion to labels
+
+enum class ScalarType {
+    Int8,
+    UInt8,
+    Int16,
+    UInt16,
+    Int32,
+    UInt32,
+    Int64,
+    UInt64,
+    Float32,
+    Float64
+};
+
+std::size_t scalar_bytes(ScalarType type) {
+    switch (type) {
+        case ScalarType::Int8:
+        case ScalarType::UInt8:
+            return 1;
+        case ScalarType::Int16:
+        case ScalarType::UInt16:
+            return 2;
+        case ScalarType::Int32:
+        case ScalarType::UInt32:
+        case ScalarType::Float32:
+            return 4;
+        case ScalarType::Int64:
+        case ScalarType::UInt64:
+        case ScalarType::Float64:
+            return 8;
+    }
+    return 1;
+}
+
+/// Converts stored voxel values, in raster order, into the labels of a stack; rejects the first
+/// value that is not an integer label 0..65535 (after scaling) naming its voxel (i,j,k). Values
+/// within 1e-4 of an integer are rounded (float data written through resampling code).
+class LabelDecoder {
+public:
+    LabelDecoder(ScalarType type,
+                 bool swap,
+                 double slope,
+                 double inter,
+                 SliceStack& stack,
+                 std::string where,
+                 const ProgressFn& progress)
+        : type_(type),
+          swap_(swap),
+          is_scaled_(slope != 0.0 && !(slope == 1.0 && inter == 0.0)),
+          slope_(slope),
+          inter_(inter),
+          stack_(stack),
+          where_(std::move(where)),
+          progress_(progress) {}
+
+    /// Converts `count` stored values starting at `bytes` (count * scalar_bytes(type) bytes).
+    void decode(const unsigned char* bytes, std::size_t count) {
+        switch (type_) {
+            case ScalarType::Int8:
+                return decode_as<std::int8_t>(bytes, count);
+            case ScalarType::UInt8:
+                return decode_as<std::uint8_t>(bytes, count);
+            case ScalarType::Int16:
+                return decode_as<std::int16_t>(bytes, count);
+            case ScalarType::UInt16:
+                return decode_as<std::uint16_t>(bytes, count);
+            case ScalarType::Int32:
+                return decode_as<std::int32_t>(bytes, count);
+            case ScalarType::UInt32:
+                return decode_as<std::uint32_t>(bytes, count);
+            case ScalarType::Int64:
+                return decode_as<std::int64_t>(bytes, count);
+            case ScalarType::UInt64:
+                return decode_as<std::uint64_t>(bytes, count);
+            case ScalarType::Float32:
+                return decode_as<float>(bytes, count);
+            case ScalarType::Float64:
+                return decode_as<double>(bytes, count);
+        }
+    }
+
+private:
+    template <typename T>
+    void decode_as(const unsigned char* bytes, std::size_t count) {
+        std::uint16_t* out = stack_.labels.data();
+        for (std::size_t n = 0; n < count; ++n, bytes += sizeof(T)) {
+            const T stored = load<T>(bytes, swap_);
+            if constexpr (std::is_integral_v<T>) {
+                if (!is_scaled_) {
+                    if (!std::in_range<std::uint16_t>(stored)) {
+                        reject(std::to_string(stored), "");
+                    }
+                    out[next_++] = static_cast<std::uint16_t>(stored);
+                    continue;
+                }
+            }
+            const double value = is_scaled_ ? static_cast<double>(stored) * slope_ + inter_
+                                            : static_cast<double>(stored);
+            const double rounded = std::nearbyint(value);
+            if (!std::isfinite(value) || std::abs(value - rounded) > 1e-4 || rounded < 0.0 ||
+                rounded > 65535.0) {
+                reject(format_number(value),
+                       is_scaled_ ? " (stored " + format_number(static_cast<double>(stored)) +
+                                        " * scl_slope " + format_number(slope_) + " + scl_inter " +
+                                        format_number(inter_) + ")"
+                                  : "");
+            }
+            out[next_++] = static_cast<std::uint16_t>(rounded);
+        }
+        report_progress();
+    }
+
+    [[noreturn]] void reject(const std::string& value, const std::string& detail) const {
+        const std::size_t slice = stack_.slice_size();
+        const std::size_t k = next_ / slice;
+        const std::size_t j = (next_ % slice) / stack_.width;
+        const std::size_t i = next_ % stack_.width;
+        throw Error(ErrorCode::InvalidInput, where_ + ": voxel (" + std::to_string(i) + "," +
+                                                 std::to_string(j) + "," + std::to_string(k) +
+                                                 ") has value " + value + detail +
+                                                 ", expected an integer label 0..65535");
+    }
+
+    void report_progress() {
+        if (!progress_) {
+            return;
+        }
+        const std::size_t done = next_ / stack_.slice_size();
+        while (slices_reported_ < done) {
+            progress_("slices", ++slices_reported_, stack_.depth);
+        }
+    }
+
+    ScalarType type_;
+    bool swap_;
+    bool is_scaled_;
+    double slope_;
+    double inter_;
+    SliceStack& stack_;
+    std::string where_;
+    const ProgressFn& progress_;
+    std::size_t next_ = 0;
+    std::size_t slices_reported_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// gzip-or-plain input through zlib's gz* interface (it reads uncompressed files transparently)
+
+class GzInput {
+public:
+    GzInput(const std::filesystem::path& file, std::string where) : where_(std::move(where)) {
+        errno = 0;
+        handle_ = gzopen(file.c_str(), "rb");
+        if (handle_ == nullptr) {
+            throw Error(ErrorCode::Io, where_ + ": cannot open " + file.string() + ": " +
+                                           (errno != 0 ? std::strerror(errno) : "out of memory"));
+        }
+    }
+    ~GzInput() { gzclose(handle_); }
+    GzInput(const GzInput&) = delete;
+    GzInput& operator=(const GzInput&) = delete;
+
+    /// Reads up to `size` bytes; fewer only at the end of the data (a truncated file).
+    /// Throws Error{InvalidInput} for corrupt gzip data, Error{Io} for read errors.
+    std::size_t read(void* buffer, std::size_t size) {
+        std::size_t total = 0;
+        auto* bytes = static_cast<unsigned char*>(buffer);
+        while (total < size) {
+            const unsigned ask =
+                static_cast<unsigned>(std::min<std::size_t>(size - total, 1u << 30));
+            const int got = gzread(handle_, bytes + total, ask);
+            if (got < 0) {
+                throw_stream_error();
+            }
+            total += static_cast<std::size_t>(got);
+            if (static_cast<unsigned>(got) < ask) {
+                break;
+            }
+        }
+        return total;
+    }
+
+    /// Skips `size` bytes; returns how many were there.
+    std::uint64_t skip(std::uint64_t size) {
+        std::vector<unsigned char> scratch(std::min<std::uint64_t>(size, kChunkBytes));
+        std::uint64_t total = 0;
+        while (total < size) {
+            const std::size_t ask = std::min<std::uint64_t>(size - total, scratch.size());
+            const std::size_t got = read(scratch.data(), ask);
+            total += got;
+            if (got < ask) {
+                break;
+            }
+        }
+        return total;
+    }
+
+    /// After the voxel data of a gzip file: reads on so that zlib checks the stream's CRC.
+    /// A missing trailer is tolerated (the voxel data was complete), a wrong CRC is not.
+    void check_trailer() {
+        if (gzdirect(handle_) != 0) {
+            return;
+        }
+        unsigned char byte = 0;
+        if (gzread(handle_, &byte, 1) < 0) {
+            throw_stream_error();
+        }
+    }
+
+private:
+    [[noreturn]] void throw_stream_error() {
+        int code = Z_OK;
+        const char* message = gzerror(handle_, &code);
+        if (code == Z_ERRNO) {
+            throw Error(ErrorCode::Io, where_ + ": read error: " + std::strerror(errno));
+        }
+        if (code == Z_MEM_ERROR) {
+            throw Error(ErrorCode::Internal, where_ + ": zlib: out of memory");
+        }
+        throw Error(ErrorCode::InvalidInput,
+                    where_ + ": corrupt gzip data: " + (message != nullptr ? message : "unknown"));
+    }
+
+    std::string where_;
+    gzFile handle_ = nullptr;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Header
+
+struct NiftiHeader {
+    int version = 1;    // 1 or 2
+    bool swap = false;  // file byte order differs from ours
+    std::size_t size = kNifti1HeaderBytes;
+    std::array<std::int64_t, 8> dim{};
+    int datatype = 0;
+    int bitpix = 0;
+    std::array<double, 8> pixdim{};
+    double vox_offset = 0;
+    double scl_slope = 0;
+    double scl_inter = 0;
+    int qform_code = 0;
+    int sform_code = 0;
+    std::array<double, 3> quatern{};  // b, c, d
+    std::array<double, 3> qoffset{};
+    std::array<std::array<double, 4>, 3> srow{};
+    int xyzt_units = 0;
+};
+
+NiftiHeader parse_header(GzInput& in, const std::string& where) {
+    std::array<unsigned char, kNifti2HeaderBytes> raw{};
+    const std::size_t first = in.read(raw.data(), 4);
+    if (first < 4) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": truncated header: file has " + std::to_string(first) +
+                        " bytes, expected a 348-byte NIfTI-1 or 540-byte NIfTI-2 header");
+    }
+    NiftiHeader h;
+    const auto sizeof_hdr = load<std::int32_t>(raw.data(), false);
+    const auto sizeof_hdr_swapped = load<std::int32_t>(raw.data(), true);
+    if (sizeof_hdr == 348 || sizeof_hdr == 540) {
+        h.swap = false;
+        h.version = sizeof_hdr == 348 ? 1 : 2;
+    } else if (sizeof_hdr_swapped == 348 || sizeof_hdr_swapped == 540) {
+        h.swap = true;
+        h.version = sizeof_hdr_swapped == 348 ? 1 : 2;
+    } else {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": not a NIfTI file: sizeof_hdr is " + std::to_string(sizeof_hdr) +
+                        ", expected 348 (NIfTI-1) or 540 (NIfTI-2) in either byte order");
+    }
+    h.size = h.version == 1 ? kNifti1HeaderBytes : kNifti2HeaderBytes;
+    const std::size_t rest = in.read(raw.data() + 4, h.size - 4);
+    if (rest < h.size - 4) {
+        throw Error(ErrorCode::InvalidInput, where + ": truncated header: found " +
+                                                 std::to_string(rest + 4) + " of " +
+                                                 std::to_string(h.size) + " bytes of the NIfTI-" +
+                                                 std::to_string(h.version) + " header");
+    }
+    const unsigned char* p = raw.data();
+    const bool s = h.swap;
+
+    if (h.version == 1) {
+        const std::string_view magic(reinterpret_cast<const char*>(p + 344), 4);
+        if (magic == std::string_view("ni1\0", 4)) {
+            throw Error(ErrorCode::Unsupported,
+                        where +
+                            ": NIfTI-1 header/image pair (magic \"ni1\", .hdr + .img) is not "
+                            "supported; convert it to a single-file .nii or .nii.gz");
+        }
+        if (magic != std::string_view("n+1\0", 4)) {
+            throw Error(ErrorCode::InvalidInput,
+                        where +
+                            ": bad magic at byte 344, expected \"n+1\" (single-file "
+                            "NIfTI-1; Analyze 7.5 files are not supported)");
+        }
+        for (int d = 0; d < 8; ++d) {
+            h.dim[d] = load<std::int16_t>(p + 40 + 2 * d, s);
+            h.pixdim[d] = load<float>(p + 76 + 4 * d, s);
+        }
+        h.datatype = load<std::int16_t>(p + 70, s);
+        h.bitpix = load<std::int16_t>(p + 72, s);
+        h.vox_offset = load<float>(p + 108, s);
+        h.scl_slope = load<float>(p + 112, s);
+        h.scl_inter = load<float>(p + 116, s);
+        h.xyzt_units = p[123];
+        h.qform_code = load<std::int16_t>(p + 252, s);
+        h.sform_code = load<std::int16_t>(p + 254, s);
+        for (int q = 0; q < 3; ++q) {
+            h.quatern[q] = load<float>(p + 256 + 4 * q, s);
+            h.qoffset[q] = load<float>(p + 268 + 4 * q, s);
+        }
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 4; ++c) {
+                h.srow[r][c] = load<float>(p + 280 + 16 * r + 4 * c, s);
+            }
+        }
+    } else {
+        const std::string_view magic(reinterpret_cast<const char*>(p + 4), 8);
+        if (magic.substr(0, 4) == std::string_view("ni2\0", 4)) {
+            throw Error(ErrorCode::Unsupported,
+                        where +
+                            ": NIfTI-2 header/image pair (magic \"ni2\", .hdr + .img) is not "
+                            "supported; convert it to a single-file .nii or .nii.gz");
+        }
+        if (magic.substr(0, 4) != std::string_view("n+2\0", 4)) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": bad magic at byte 4, expected \"n+2\" (single-file NIfTI-2)");
+        }
+        if (magic.substr(4) != std::string_view("\r\n\032\n", 4)) {
+            throw Error(ErrorCode::InvalidInput,
+                        where +
+                            ": NIfTI-2 magic bytes 8..11 are not \\r\\n\\032\\n (file "
+                            "transferred in text mode?)");
+        }
+        h.datatype = load<std::int16_t>(p + 12, s);
+        h.bitpix = load<std::int16_t>(p + 14, s);
+        for (int d = 0; d < 8; ++d) {
+            h.dim[d] = load<std::int64_t>(p + 16 + 8 * d, s);
+            h.pixdim[d] = load<double>(p + 104 + 8 * d, s);
+        }
+        const auto offset = load<std::int64_t>(p + 168, s);
+        h.vox_offset = static_cast<double>(offset);
+        h.scl_slope = load<double>(p + 176, s);
+        h.scl_inter = load<double>(p + 184, s);
+        h.qform_code = load<std::int32_t>(p + 344, s);
+        h.sform_code = load<std::int32_t>(p + 348, s);
+        for (int q = 0; q < 3; ++q) {
+            h.quatern[q] = load<double>(p + 352 + 8 * q, s);
+            h.qoffset[q] = load<double>(p + 376 + 8 * q, s);
+        }
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 4; ++c) {
+                h.srow[r][c] = load<double>(p + 400 + 32 * r + 8 * c, s);
+            }
+        }
+        h.xyzt_units = load<std::int32_t>(p + 500, s);
+    }
+    return h;
+}
+
+struct DatatypeInfo {
+    int code;
+    const char* name;
+    int bitpix;
+    bool is_supported;
+    ScalarType type;
+};
+
+constexpr DatatypeInfo kDatatypes[] = {
+    {1, "binary", 1, false, ScalarType::UInt8},
+    {2, "uint8", 8, true, ScalarType::UInt8},
+    {4, "int16", 16, true, ScalarType::Int16},
+    {8, "int32", 32, true, ScalarType::Int32},
+    {16, "float32", 32, true, ScalarType::Float32},
+    {32, "complex64", 64, false, ScalarType::UInt8},
+    {64, "float64", 64, true, ScalarType::Float64},
+    {128, "rgb24", 24, false, ScalarType::UInt8},
+    {256, "int8", 8, true, ScalarType::Int8},
+    {512, "uint16", 16, true, ScalarType::UInt16},
+    {768, "uint32", 32, true, ScalarType::UInt32},
+    {1024, "int64", 64, true, ScalarType::Int64},
+    {1280, "uint64", 64, true, ScalarType::UInt64},
+    {1536, "float128", 128, false, ScalarType::UInt8},
+    {1792, "complex128", 128, false, ScalarType::UInt8},
+    {2048, "complex256", 256, false, ScalarType::UInt8},
+    {2304, "rgba32", 32, false, ScalarType::UInt8},
+};
+
+ScalarType check_datatype(const NiftiHeader& h, const std::string& where) {
+    for (const DatatypeInfo& info : kDatatypes) {
+        if (info.code != h.datatype) {
+            continue;
+        }
+        if (!info.is_supported) {
+            throw Error(ErrorCode::Unsupported,
+                        where + ": datatype " + std::to_string(h.datatype) + " (" + info.name +
+                            ") is not supported; expected an integer or real label type "
+                            "(uint8, int8, uint16, int16, uint32, int32, uint64, int64, "
+                            "float32, float64)");
+        }
+        if (h.bitpix != info.bitpix) {
+            throw Error(ErrorCode::InvalidInput, where + ": bitpix " + std::to_string(h.bitpix) +
+                                                     " does not match datatype " + info.name +
+                                                     ", expected " + std::to_string(info.bitpix));
+        }
+        return info.type;
+    }
+    throw Error(ErrorCode::InvalidInput,
+                where + ": unknown datatype code " + std::to_string(h.datatype));
+}
+
+/// Checks dim[]; returns width, height, depth.
+std::array<std::uint64_t, 3> check_dims(const NiftiHeader& h, const std::string& where) {
+    const std::int64_t rank = h.dim[0];
+    if (rank < 2 || rank > 7) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": dim[0] = " + std::to_string(rank) + ", expected 2..7 dimensions");
+    }
+    for (int d = 1; d <= rank; ++d) {
+        if (h.dim[d] < 0) {
+            throw Error(ErrorCode::InvalidInput, where + ": dim[" + std::to_string(d) +
+                                                     "] = " + std::to_string(h.dim[d]) +
+                                                     ", expected a positive size");
+        }
+    }
+    // note: saturating product so that absurd headers still give a number to print
+    long double volumes = 1;
+    for (int d = 4; d <= rank; ++d) {
+        volumes *= static_cast<long double>(h.dim[d]);
+    }
+    if (volumes == 0) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": empty dimension: dim[4..7] has a 0, expected 1 (one volume)");
+    }
+    if (volumes > 1) {
+        std::ostringstream s;
+        s.precision(20);
+        s << where << ": " << rank << "D NIfTI with " << volumes
+          << " volumes; expected a single 3D label volume";
+        throw Error(ErrorCode::Unsupported, s.str());
+    }
+    const auto axis = [&](int d) -> std::uint64_t {
+        return d <= rank ? static_cast<std::uint64_t>(h.dim[d]) : 1;
+    };
+    return {axis(1), axis(2), axis(3)};
+}
+
+/// Voxel size in mm per axis from pixdim (checked for the axes in use) and xyzt_units.
+Vec3 voxel_size(const NiftiHeader& h, double unit_mm, const std::string& where) {
+    Vec3 size{1, 1, 1};
+    const std::int64_t used = std::min<std::int64_t>(h.dim[0], 3);
+    for (int d = 1; d <= 3; ++d) {
+        const double value = h.pixdim[d];
+        if (d <= used) {
+            if (!std::isfinite(value) || value <= 0) {
+                throw Error(ErrorCode::InvalidInput, where + ": pixdim[" + std::to_string(d) +
+                                                         "] = " + format_number(value) +
+                                                         " (voxel size along " + "ijk"[d - 1] +
+                                                         "), expected a finite positive size");
+            }
+            size[d - 1] = value * unit_mm;
+        } else if (std::isfinite(value) && value > 0) {
+            size[d - 1] = value * unit_mm;  // 2D image: slice thickness if given
+        }
+    }
+    return size;
+}
+
+double spatial_unit_mm(const NiftiHeader& h) {
+    switch (h.xyzt_units & 0x07) {
+        case 1:
+            return 1000.0;  // metres
+        case 3:
+            return 0.001;  // micrometres
+        default:
+            return 1.0;  // mm, or unknown (mm by convention)
+    }
+}
+
+Affine3 qform_affine(const NiftiHeader& h,
+                     Vec3 voxel_mm,
+                     double unit_mm,
+                     const std::string& where) {
+    const double b = h.quatern[0];
+    const double c = h.quatern[1];
+    const double d = h.quatern[2];
+    for (double v : {b, c, d, h.qoffset[0], h.qoffset[1], h.qoffset[2]}) {
+        if (!std::isfinite(v)) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": qform quaternion or offset has a non-finite value");
+        }
+    }
+    const double bcd = b * b + c * c + d * d;
+    if (bcd > 1.0 + 1e-4) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": qform quaternion (b,c,d) = (" + format_number(b) + "," +
+                        format_number(c) + "," + format_number(d) +
+                        ") has b^2+c^2+d^2 = " + format_number(bcd) + ", expected at most 1");
+    }
+    // note: as nifti_quatern_to_mat44, a tiny negative 1 - |bcd|^2 means a = 0 and (b,c,d) unit
+    double a = 1.0 - bcd;
+    double bn = b, cn = c, dn = d;
+    if (a < 1e-7) {
+        const double scale = 1.0 / std::sqrt(bcd);
+        bn *= scale;
+        cn *= scale;
+        dn *= scale;
+        a = 0;
+    } else {
+        a = std::sqrt(a);
+    }
+    const double qfac = h.pixdim[0] < 0 ? -1.0 : 1.0;
+    const double r[3][3] = {
+        {a * a + bn * bn - cn * cn - dn * dn, 2 * (bn * cn - a * dn), 2 * (bn * dn + a * cn)},
+        {2 * (bn * cn + a * dn), a * a + cn * cn - bn * bn - dn * dn, 2 * (cn * dn - a * bn)},
+        {2 * (bn * dn - a * cn), 2 * (cn * dn + a * bn), a * a + dn * dn - cn * cn - bn * bn},
+    };
+    Affine3 affine;
+    for (int row = 0; row < 3; ++row) {
+        affine.linear[row][0] = r[row][0] * voxel_mm.x;
+        affine.linear[row][1] = r[row][1] * voxel_mm.y;
+        affine.linear[row][2] = r[row][2] * voxel_mm.z * qfac;
+        affine.translation[row] = h.qoffset[row] * unit_mm;
+    }
+    return affine;
+}
+
+Affine3 sform_affine(const NiftiHeader& h, double unit_mm, const std::string& where) {
+    Affine3 affine;
+    for (int row = 0; row < 3; ++row) {
+        for (int col = 0; col < 4; ++col) {
+            const double v = h.srow[row][col];
+            if (!std::isfinite(v)) {
+                throw Error(ErrorCode::InvalidInput, where + ": srow_" + "xyz"[row] + "[" +
+                                                         std::to_string(col) + "] is not finite");
+            }
+            if (col < 3) {
+                affine.linear[row][col] = v * unit_mm;
+            } else {
+                affine.translation[row] = v * unit_mm;
+            }
+        }
+    }
+    return affine;
+}
+
+/// Index -> world affine in the file's RAS frame ("RAS"), or diag(pixdim) ("none").
+std::pair<Affine3, std::string> world_affine(const NiftiHeader& h, const std::string& where) {
+    if (h.sform_code < 0 || h.qform_code < 0) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": negative " + (h.sform_code < 0 ? "sform_code " : "qform_code ") +
+                        std::to_string(std::min(h.sform_code, h.qform_code)) +
+                        ", expected 0 (unset) or a positive code");
+    }
+    const double unit_mm = spatial_unit_mm(h);
+    const Vec3 voxel_mm = voxel_size(h, unit_mm, where);
+    if (h.sform_code > 0) {
+        return {sform_affine(h, unit_mm, where), "RAS"};
+    }
+    if (h.qform_code > 0) {
+        return {qform_affine(h, voxel_mm, unit_mm, where), "RAS"};
+    }
+    Affine3 affine;
+    for (int i = 0; i < 3; ++i) {
+        affine.linear[i][i] = voxel_mm[i];
+    }
+    return {affine, "none"};
+}
+
+Affine3 flip_ras_lps(Affine3 affine) {
+    for (int row = 0; row < 2; ++row) {
+        for (int col = 0; col < 3; ++col) {
+            affine.linear[row][col] = -affine.linear[row][col];
+        }
+        affine.translation[row] = -affine.translation[row];
+    }
+    return affine;
+}
+
+/// Checks vox_offset; returns it as a byte count.
+std::uint64_t check_vox_offset(const NiftiHeader& h, const std::string& where) {
+    const double offset = h.vox_offset;
+    if (!std::isfinite(offset) || offset != std::floor(offset) ||
+        offset < static_cast<double>(h.size) || offset > 0x1p62) {
+        throw Error(ErrorCode::InvalidInput, where + ": vox_offset " + format_number(offset) +
+                                                 ", expected a whole number of bytes at least " +
+                                                 std::to_string(h.size) + " (the header size)");
+    }
+    return static_cast<std::uint64_t>(offset);
+}
+
+void check_scaling(const NiftiHeader& h, const std::string& where) {
+    if (h.scl_slope != 0.0 && (!std::isfinite(h.scl_slope) || !std::isfinite(h.scl_inter))) {
+        throw Error(ErrorCode::InvalidInput, where + ": scl_slope " + format_number(h.scl_slope) +
+                                                 " / scl_inter " + format_number(h.scl_inter) +
+                                                 " is not finite");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Extensions: a Caret/CIFTI <LabelTable> (TotalSegmentator writes one, with ecode 0) gives label
+// names and colours. Extensions are optional metadata: malformed ones are warned about, not fatal.
+
+std::optional<std::string_view> xml_attribute(std::string_view tag, std::string_view name) {
+    std::size_t at = 0;
+    while ((at = tag.find(name, at)) != std::string_view::npos) {
+        const std::size_t after = at + name.size();
+        const bool is_word_start = at > 0 && std::isspace(static_cast<unsigned char>(tag[at - 1]));
+        if (is_word_start && tag.substr(after, 2) == "=\"") {
+            const std::size_t end = tag.find('"', after + 2);
+            if (end == std::string_view::npos) {
+                return std::nullopt;
+            }
+            return tag.substr(after + 2, end - after - 2);
+        }
+        at = after;
+    }
+    return std::nullopt;
+}
+
+std::string xml_text(std::string_view text) {
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.front()))) {
+        text.remove_prefix(1);
+    }
+    while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) {
+        text.remove_suffix(1);
+    }
+    if (text.starts_with("<![CDATA[") && text.ends_with("]]>")) {
+        return std::string(text.substr(9, text.size() - 12));
+    }
+    static constexpr std::pair<std::string_view, char> kEntities[] = {
+        {"&amp;", '&'}, {"&lt;", '<'}, {"&gt;", '>'}, {"&quot;", '"'}, {"&apos;", '\''}};
+    std::string out;
+    for (std::size_t n = 0; n < text.size(); ++n) {
+        bool is_entity = false;
+        for (const auto& [entity, ch] : kEntities) {
+            if (text.substr(n, entity.size()) == entity) {
+                out.push_back(ch);
+                n += entity.size() - 1;
+                is_entity = true;
+                break;
+            }
+        }
+        if (!is_entity) {
+            out.push_back(text[n]);
+        }
+    }
+    return out;
+}
+
+std::optional<double> parse_real(std::string_view text) {
+    double value = 0;
+    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size()) {
+        return std::nullopt;
+    }
+    return value;
+}
+
+std::vector<LabelInfo> caret_labels(std::string_view xml,
+                                    const std::string& where,
+                                    Report& report) {
+    std::vector<LabelInfo> table;
+    std::size_t pos = 0;
+    while ((pos = xml.find("<Label", pos)) != std::string_view::npos) {
+        const std::size_t tag_end = xml.find('>', pos);
+        if (tag_end == std::string_view::npos) {
+            break;
+        }
+        const std::string_view tag = xml.substr(pos, tag_end - pos);
+        if (tag.size() <= 6 || !std::isspace(static_cast<unsigned char>(tag[6]))) {
+            pos = tag_end + 1;  // <LabelTable> or another element
+            continue;
+        }
+        const std::size_t close = xml.find("</Label>", tag_end);
+        if (close == std::string_view::npos) {
+            break;
+        }
+        const std::string name = xml_text(xml.substr(tag_end + 1, close - tag_end - 1));
+        pos = close + 8;
+        const auto key_text = xml_attribute(tag, "Key");
+        const auto key = key_text ? parse_real(*key_text) : std::nullopt;
+        if (!key || *key != std::floor(*key) || *key < 0 || *key > 65535) {
+            report.warn("input", where,
+                        "ignored a label of the NIfTI label-table extension with key \"" +
+                            std::string(key_text.value_or("")) + "\", expected 0..65535");
+            continue;
+        }
+        const auto value = static_cast<std::uint16_t>(*key);
+        if (value == 0 || std::any_of(table.begin(), table.end(),
+                                      [&](const LabelInfo& l) { return l.value == value; })) {
+            continue;  // background, or a repeated key (first kept)
+        }
+        ColorSrgb8 color = palette_color(value);
+        const std::optional<std::string_view> rgb[3] = {
+            xml_attribute(tag, "Red"), xml_attribute(tag, "Green"), xml_attribute(tag, "Blue")};
+        if (rgb[0] && rgb[1] && rgb[2]) {
+            bool is_valid = true;
+            ColorSrgb8 parsed{};
+            for (int c = 0; c < 3; ++c) {
+                const auto component = parse_real(*rgb[c]);
+                is_valid = is_valid && component && *component >= 0.0 && *component <= 1.0;
+                if (is_valid) {
+                    parsed[c] = static_cast<std::uint8_t>(std::lround(255.0 * *component));
+                }
+            }
+            if (is_valid) {
+                color = parsed;
+            }
+        }
+        table.push_back({value, name.empty() ? "label " + std::to_string(value) : name, color});
+    }
+    std::sort(table.begin(), table.end(),
+              [](const LabelInfo& a, const LabelInfo& b) { return a.value < b.value; });
+    return table;
+}
+
+/// Label names and colours from the extensions between the header and vox_offset (`bytes`
+/// starts with the 4-byte extender).
+std::vector<LabelInfo> read_extension_labels(const std::string& bytes,
+                                             bool swap,
+                                             std::size_t header_size,
+                                             const std::string& where,
+                                             Report& report) {
+    if (bytes.size() < 4 || bytes[0] == 0) {
+        return {};
+    }
+    const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+    std::size_t pos = 4;
+    while (pos + 8 <= bytes.size()) {
+        const auto esize = load<std::int32_t>(data + pos, swap);
+        if (esize < 8 || static_cast<std::uint64_t>(esize) > bytes.size() - pos) {
+            report.warn("input", where,
+                        "ignored a malformed NIfTI extension at byte " +
+                            std::to_string(header_size + pos) + " (esize " + std::to_string(esize) +
+                            ")");
+            return {};
+        }
+        const std::string_view content(bytes.data() + pos + 8, static_cast<std::size_t>(esize) - 8);
+        if (content.find("<CaretExtension") != std::string_view::npos) {
+            return caret_labels(content, where, report);
+        }
+        pos += static_cast<std::size_t>(esize);
+    }
+    return {};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writer helpers
+
+/// 3x3 inverse transpose helper for the polar decomposition.
+std::array<std::array<double, 3>, 3> inverse_transpose(
+    const std::array<std::array<double, 3>, 3>& m) {
+    std::array<std::array<double, 3>, 3> cof{};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) {
+            const int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+            cof[r][c] = m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1];
+        }
+    }
+    const double det = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
+    for (auto& row : cof) {
+        for (double& v : row) {
+            v /= det;
+        }
+    }
+    return cof;
+}
+
+struct Quaternion {
+    double b = 0, c = 0, d = 0, qfac = 1;
+    Vec3 voxel_mm{1, 1, 1};
+};
+
+/// Nearest qform (rotation, qfac, pixdim) to a RAS affine: column lengths give pixdim, the
+/// normalised columns are made orthogonal by polar decomposition (exact for unsheared affines).
+Quaternion affine_to_quaternion(const Affine3& ras) {
+    Quaternion q;
+    std::array<std::array<double, 3>, 3> m{};
+    for (int c = 0; c < 3; ++c) {
+        const Vec3 col = ras.column(c);
+        q.voxel_mm[c] = norm(col);
+        for (int r = 0; r < 3; ++r) {
+            m[r][c] = col[r] / q.voxel_mm[c];
+        }
+    }
+    Affine3 unit;
+    unit.linear = m;
+    if (unit.determinant() < 0) {
+        q.qfac = -1;
+        for (int r = 0; r < 3; ++r) {
+            m[r][2] = -m[r][2];
+        }
+    }
+    for (int iteration = 0; iteration < 50; ++iteration) {
+        const auto it = inverse_transpose(m);
+        double change = 0;
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) {
+                const double next = 0.5 * (m[r][c] + it[r][c]);
+                change = std::max(change, std::abs(next - m[r][c]));
+                m[r][c] = next;
+            }
+        }
+        if (change < 1e-15) {
+            break;
+        }
+    }
+    double a = m[0][0] + m[1][1] + m[2][2] + 1.0;
+    double b, c, d;
+    if (a > 0.5) {
+        a = 0.5 * std::sqrt(a);
+        b = 0.25 * (m[2][1] - m[1][2]) / a;
+        c = 0.25 * (m[0][2] - m[2][0]) / a;
+        d = 0.25 * (m[1][0] - m[0][1]) / a;
+    } else {
+        const double xd = 1.0 + m[0][0] - (m[1][1] + m[2][2]);
+        const double yd = 1.0 + m[1][1] - (m[0][0] + m[2][2]);
+        const double zd = 1.0 + m[2][2] - (m[0][0] + m[1][1]);
+        if (xd > 1.0) {
+            b = 0.5 * std::sqrt(xd);
+            c = 0.25 * (m[0][1] + m[1][0]) / b;
+            d = 0.25 * (m[0][2] + m[2][0]) / b;
+            a = 0.25 * (m[2][1] - m[1][2]) / b;
+        } else if (yd > 1.0) {
+            c = 0.5 * std::sqrt(yd);
+            b = 0.25 * (m[0][1] + m[1][0]) / c;
+            d = 0.25 * (m[1][2] + m[2][1]) / c;
+            a = 0.25 * (m[0][2] - m[2][0]) / c;
+        } else {
+            d = 0.5 * std::sqrt(zd);
+            b = 0.25 * (m[0][2] + m[2][0]) / d;
+            c = 0.25 * (m[1][2] + m[2][1]) / d;
+            a = 0.25 * (m[1][0] - m[0][1]) / d;
+        }
+        if (a < 0) {
+            b = -b;
+            c = -c;
+            d = -d;
+        }
+    }
+    q.b = b;
+    q.c = c;
+    q.d = d;
+    return q;
+}
+
+bool ends_with_nocase(const std::string& text, std::string_view suffix) {
+    if (text.size() < suffix.size()) {
+        return false;
+    }
+    for (std::size_t n = 0; n < suffix.size(); ++n) {
+        const char ch = text[text.size() - suffix.size() + n];
+        if (std::tolower(static_cast<unsigned char>(ch)) != suffix[n]) {
+            return false;
+        }
+    }
+    return true;
+}
+
+std::string nifti1_header(const SliceStack& stack, bool is_uint8) {
+    std::string header(kNifti1HeaderBytes + 4, '\0');  // + 4 zero bytes: no extensions
+    auto* p = reinterpret_cast<unsigned char*>(header.data());
+    store_le<std::int32_t>(p, 348);
+    p[38] = 'r';  // "regular", as nifti1_io writes it
+    const std::array<std::int16_t, 8> dim = {3,
+                                             static_cast<std::int16_t>(stack.width),
+                                             static_cast<std::int16_t>(stack.height),
+                                             static_cast<std::int16_t>(stack.depth),
+                                             1,
+                                             1,
+                                             1,
+                                             1};
+    for (int d = 0; d < 8; ++d) {
+        store_le<std::int16_t>(p + 40 + 2 * d, dim[d]);
+    }
+    store_le<std::int16_t>(p + 70, is_uint8 ? 2 : 512);
+    store_le<std::int16_t>(p + 72, is_uint8 ? 8 : 16);
+
+    const Affine3 ras = flip_ras_lps(stack.index_to_world);
+    const Quaternion q = affine_to_quaternion(ras);
+    const std::array<float, 8> pixdim = {static_cast<float>(q.qfac),
+                                         static_cast<float>(q.voxel_mm.x),
+                                         static_cast<float>(q.voxel_mm.y),
+                                         static_cast<float>(q.voxel_mm.z),
+                                         0,
+                                         0,
+                                         0,
+                                         0};
+    for (int d = 0; d < 8; ++d) {
+        store_le<float>(p + 76 + 4 * d, pixdim[d]);
+    }
+    store_le<float>(p + 108, static_cast<float>(kNifti1HeaderBytes + 4));  // vox_offset
+    store_le<float>(p + 112, 1.0f);                                        // scl_slope
+    store_le<float>(p + 116, 0.0f);                                        // scl_inter
+    p[123] = 2;                                                            // xyzt_units: mm
+    const char description[] = "strata label volume";
+    std::memcpy(p + 148, description, sizeof(description) - 1);
+    store_le<std::int16_t>(p + 252, 1);  // qform_code: scanner anatomical
+    store_le<std::int16_t>(p + 254, 1);  // sform_code: scanner anatomical
+    store_le<float>(p + 256, static_cast<float>(q.b));
+    store_le<float>(p + 260, static_cast<float>(q.c));
+    store_le<float>(p + 264, static_cast<float>(q.d));
+    for (int r = 0; r < 3; ++r) {
+        store_le<float>(p + 268 + 4 * r, static_cast<float>(ras.translation[r]));
+        for (int c = 0; c < 3; ++c) {
+            store_le<float>(p + 280 + 16 * r + 4 * c, static_cast<float>(ras.linear[r][c]));
+        }
+        store_le<float>(p + 280 + 16 * r + 12, static_cast<float>(ras.translation[r]));
+    }
+    std::memcpy(p + 344, "n+1\0", 4);
+    return header;
+}
+
+/// Calls `sink(bytes, size)` with the voxel data in chunks of at most kChunkBytes.
+template <typename Sink>
+void emit_voxels(const SliceStack& stack, bool is_uint8, Sink&& sink) {
+    std::vector<unsigned char> chunk;
+    chunk.reserve(kChunkBytes);
+    for (std::uint16_t label : stack.labels) {
+        if (is_uint8) {
+            chunk.push_back(static_cast<unsigned char>(label));
+        } else {
+            chunk.push_back(static_cast<unsigned char>(label & 0xFF));
+            chunk.push_back(static_cast<unsigned char>(label >> 8));
+        }
+        if (chunk.size() + 2 > kChunkBytes) {
+            sink(chunk.data(), chunk.size());
+            chunk.clear();
+        }
+    }
+    if (!chunk.empty()) {
+        sink(chunk.data(), chunk.size());
+    }
+}
+
+class GzipBuffer {
+public:
+    explicit GzipBuffer(const std::string& where) : where_(where) {
+        // note: windowBits 15 + 16 asks zlib for a gzip wrapper (header and CRC trailer)
+        if (deflateInit2(&stream_, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+            throw Error(ErrorCode::Internal, where_ + ": zlib: deflateInit2 failed");
+        }
+    }
+    ~GzipBuffer() { deflateEnd(&stream_); }
+    GzipBuffer(const GzipBuffer&) = delete;
+    GzipBuffer& operator=(const GzipBuffer&) = delete;
+
+    void add(const unsigned char* bytes, std::size_t size) { run(bytes, size, Z_NO_FLUSH); }
+    std::string finish() {
+        run(nullptr, 0, Z_FINISH);
+        return std::move(out_);
+    }
+
+private:
+    void run(const unsigned char* bytes, std::size_t size, int flush) {
+        stream_.next_in = const_cast<unsigned char*>(bytes);
+        stream_.avail_in = static_cast<uInt>(size);
+        unsigned char buffer[1 << 16];
+        int status = Z_OK;
+        do {
+            stream_.next_out = buffer;
+            stream_.avail_out = sizeof(buffer);
+            status = deflate(&stream_, flush);
+            if (status == Z_STREAM_ERROR) {
+                throw Error(ErrorCode::Internal, where_ + ": zlib: deflate failed");
+            }
+            out_.append(reinterpret_cast<const char*>(buffer), sizeof(buffer) - stream_.avail_out);
+        } while (stream_.avail_out == 0 || (flush == Z_FINISH && status != Z_STREAM_END));
+    }
+
+    std::string where_;
+    z_stream stream_{};
+    std::string out_;
+};
+
+}  // namespace
+
+namespace detail {
+
+SliceStack read_nifti(const std::filesystem::path& file,
+                      const ReadOptions& options,
+                      Report& report) {
+    const std::string where = file.filename().string();
+    GzInput in(file, where);
+    const NiftiHeader h = parse_header(in, where);
+
+    const ScalarType type = check_datatype(h, where);
+    const auto [width, height, depth] = check_dims(h, where);
+    check_stack_dimensions(width, height, depth, where, options.max_bytes);
+    check_scaling(h, where);
+    const std::uint64_t vox_offset = check_vox_offset(h, where);
+    auto [affine, frame] = world_affine(h, where);
+    if (frame == "RAS") {
+        affine = flip_ras_lps(affine);
+    }
+    const Vec3 spacing{norm(affine.column(0)), norm(affine.column(1)), norm(affine.column(2))};
+    check_spacing(spacing, where + ": " +
+                               (h.sform_code > 0   ? "sform"
+                                : h.qform_code > 0 ? "qform"
+                                                   : "pixdim"));
+    if (std::abs(affine.determinant()) <= 1e-12 * spacing.x * spacing.y * spacing.z) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": the " + (h.sform_code > 0 ? "sform" : "qform") +
+                        " matrix is singular (its axes are coplanar), expected an invertible "
+                        "voxel-to-world transform");
+    }
+
+    // Extensions: only a Caret label table is used; larger gaps are skipped unread.
+    const std::uint64_t gap = vox_offset - h.size;
+    std::vector<LabelInfo> label_table;
+    if (gap <= kMaxExtensionBytes) {
+        std::string extensions(gap, '\0');
+        const std::size_t got = in.read(extensions.data(), extensions.size());
+        if (got < gap) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": truncated: file ends at byte " + std::to_string(h.size + got) +
+                            ", before vox_offset " + std::to_string(vox_offset));
+        }
+        label_table = read_extension_labels(extensions, h.swap, h.size, where, report);
+    } else {
+        const std::uint64_t skipped = in.skip(gap);
+        if (skipped < gap) {
+            throw Error(ErrorCode::InvalidInput, where + ": truncated: file ends at byte " +
+                                                     std::to_string(h.size + skipped) +
+                                                     ", before vox_offset " +
+                                                     std::to_string(vox_offset));
+        }
+    }
+
+    SliceStack stack;
+    stack.width = static_cast<std::uint32_t>(width);
+    stack.height = static_cast<std::uint32_t>(height);
+    stack.depth = static_cast<std::uint32_t>(depth);
+    stack.labels.resize(width * height * depth);
+    stack.index_to_world = affine;
+    stack.source = file.string();
+    stack.source_frame = frame;
+    stack.label_table = std::move(label_table);
+
+    const std::size_t value_bytes = scalar_bytes(type);
+    const std::uint64_t expected = stack.labels.size() * value_bytes;
+    LabelDecoder decoder(type, h.swap, h.scl_slope, h.scl_inter, stack, where, options.progress);
+    std::vector<unsigned char> chunk(std::min<std::uint64_t>(expected, kChunkBytes));
+    std::uint64_t found = 0;
+    while (found < expected) {
+        const std::size_t ask = std::min<std::uint64_t>(expected - found, chunk.size());
+        const std::size_t got = in.read(chunk.data(), ask);
+        found += got;
+        if (got < ask) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": truncated: expected " + std::to_string(expected) +
+                            " bytes of voxel data after vox_offset " + std::to_string(vox_offset) +
+                            ", found " + std::to_string(found));
+        }
+        decoder.decode(chunk.data(), got / value_bytes);
+    }
+    in.check_trailer();
+    return stack;
+}
+
+}  // namespace detail
+
+void write_nifti(const SliceStack& stack, const std::filesystem::path& file) {
+    const std::string where = file.filename().string();
+    const std::string name = file.string();
+    const bool is_gzip = ends_with_nocase(name, ".nii.gz");
+    if (!is_gzip && !ends_with_nocase(name, ".nii")) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": cannot write NIfTI: expected a file name ending in .nii or .nii.gz");
+    }
+    if (stack.width == 0 || stack.height == 0 || stack.depth == 0 ||
+        stack.labels.size() != std::size_t(stack.width) * stack.height * stack.depth) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": cannot write an empty or inconsistent stack: " +
+                        std::to_string(stack.width) + "x" + std::to_string(stack.height) + "x" +
+                        std::to_string(stack.depth) + " with " +
+                        std::to_string(stack.labels.size()) + " labels");
+    }
+    constexpr std::uint32_t kMaxDim = 32767;
+    if (stack.width > kMaxDim || stack.height > kMaxDim || stack.depth > kMaxDim) {
+        throw Error(ErrorCode::Unsupported, where + ": dimensions " + std::to_string(stack.width) +
+                                                "x" + std::to_string(stack.height) + "x" +
+                                                std::to_string(stack.depth) +
+                                                " exceed NIfTI-1's limit of 32767 per axis");
+    }
+    check_spacing(stack.spacing_mm(), where + ": index_to_world");
+    const Vec3 spacing = stack.spacing_mm();
+    if (std::abs(stack.index_to_world.determinant()) <= 1e-12 * spacing.x * spacing.y * spacing.z) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": index_to_world is singular, expected an invertible affine");
+    }
+
+    const bool is_uint8 = std::all_of(stack.labels.begin(), stack.labels.end(),
+                                      [](std::uint16_t v) { return v <= 255; });
+    const std::string header = nifti1_header(stack, is_uint8);
+    if (is_gzip) {
+        GzipBuffer gzip(where);
+        gzip.add(reinterpret_cast<const unsigned char*>(header.data()), header.size());
+        emit_voxels(stack, is_uint8,
+                    [&](const unsigned char* bytes, std::size_t size) { gzip.add(bytes, size); });
+        write_file_atomically(file, std::string_view(gzip.finish()));
+    } else {
+        write_file_atomically(file, [&](std::ostream& out) {
+            out.write(header.data(), static_cast<std::streamsize>(header.size()));
+            emit_voxels(stack, is_uint8, [&](const unsigned char* bytes, std::size_t size) {
+                out.write(reinterpret_cast<const char*>(bytes), static_cast<std::streamsize>(size));
+            });
+        });
+    }
+}
+
+}  // namespace strata

@@ -1,0 +1,1242 @@
+// NRRD label volumes (attached `.nrrd`, 3D Slicer `.seg.nrrd`, detached `.nhdr`), read with zlib
+// only so that every header field is validated before it is used.
+//
+// Format: "Definition of NRRD File Format", Teem 1.9+ (http://teem.sourceforge.net/nrrd/
+// format.html), magics NRRD0001..NRRD0005. Segmentation fields: 3D Slicer's
+// vtkMRMLSegmentationStorageNode (SegmentN_Name/_Color/_LabelValue/_Layer key:=value pairs).
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+#include <zlib.h>
+
+#include "core/error.h"
+#include "input/detail/readers.h"
+
+namespace strata::detail {
+
+namespace {
+
+// note: raw voxel bytes are streamed through a buffer of this size (a multiple of every voxel
+// size), so memory use is bounded by the label images whatever the stored type
+constexpr std::size_t kChunkBytes = std::size_t(1) << 20;
+// NRRD headers are a few KiB; this only stops a binary file from being read as one long header.
+constexpr std::size_t kMaxHeaderBytes = std::size_t(1) << 20;
+
+// ---------------------------------------------------------------------------------------------
+// Small helpers
+
+std::string format_number(double value) {
+    char buffer[64];
+    const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+    return std::string(buffer, result.ptr);
+}
+
+std::string_view trim(std::string_view text) {
+    const auto is_space = [](char ch) {
+        return ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n' || ch == '\f' || ch == '\v';
+    };
+    while (!text.empty() && is_space(text.front())) {
+        text.remove_prefix(1);
+    }
+    while (!text.empty() && is_space(text.back())) {
+        text.remove_suffix(1);
+    }
+    return text;
+}
+
+std::vector<std::string_view> split_words(std::string_view text) {
+    std::vector<std::string_view> words;
+    std::size_t n = 0;
+    while (n < text.size()) {
+        while (n < text.size() && (text[n] == ' ' || text[n] == '\t')) {
+            ++n;
+        }
+        const std::size_t start = n;
+        while (n < text.size() && text[n] != ' ' && text[n] != '\t') {
+            ++n;
+        }
+        if (n > start) {
+            words.push_back(text.substr(start, n - start));
+        }
+    }
+    return words;
+}
+
+std::optional<double> parse_double(std::string_view text) {
+    text = trim(text);
+    if (!text.empty() && text.front() == '+') {
+        text.remove_prefix(1);
+    }
+    double value = 0;
+    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (result.ec != std::errc() || result.ptr != text.data() + text.size() || text.empty()) {
+        return std::nullopt;
+    }
+    return value;
+}
+
+std::optional<std::int64_t> parse_int(std::string_view text) {
+    text = trim(text);
+    if (!text.empty() && text.front() == '+') {
+        text.remove_prefix(1);
+    }
+    std::int64_t value = 0;
+    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (result.ec != std::errc() || result.ptr != text.data() + text.size() || text.empty()) {
+        return std::nullopt;
+    }
+    return value;
+}
+
+template <typename T>
+T load(const unsigned char* bytes, bool swap) {
+    std::array<unsigned char, sizeof(T)> raw;
+    std::memcpy(raw.data(), bytes, sizeof(T));
+    if (swap) {
+        std::reverse(raw.begin(), raw.end());
+    }
+    return std::bit_cast<T>(raw);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stored voxel types and their conversion to labels
+
+enum class ScalarType {
+    Int8,
+    UInt8,
+    Int16,
+    UInt16,
+    Int32,
+    UInt32,
+    Int64,
+    UInt64,
+    Float32,
+    Float64
+};
+
+std::size_t scalar_bytes(ScalarType type) {
+    switch (type) {
+        case ScalarType::Int8:
+        case ScalarType::UInt8:
+            return 1;
+        case ScalarType::Int16:
+        case ScalarType::UInt16:
+            return 2;
+        case ScalarType::Int32:
+        case ScalarType::UInt32:
+        case ScalarType::Float32:
+            return 4;
+        case ScalarType::Int64:
+        case ScalarType::UInt64:
+        case ScalarType::Float64:
+            return 8;
+    }
+    return 1;
+}
+
+/// NRRD type spellings (format.html section 5, "type").
+std::optional<ScalarType> parse_type(std::string_view text) {
+    struct Spelling {
+        std::string_view name;
+        ScalarType type;
+    };
+    static constexpr Spelling kSpellings[] = {
+        {"signed char", ScalarType::Int8},
+        {"int8", ScalarType::Int8},
+        {"int8_t", ScalarType::Int8},
+        {"uchar", ScalarType::UInt8},
+        {"unsigned char", ScalarType::UInt8},
+        {"uint8", ScalarType::UInt8},
+        {"uint8_t", ScalarType::UInt8},
+        {"short", ScalarType::Int16},
+        {"short int", ScalarType::Int16},
+        {"signed short", ScalarType::Int16},
+        {"signed short int", ScalarType::Int16},
+        {"int16", ScalarType::Int16},
+        {"int16_t", ScalarType::Int16},
+        {"ushort", ScalarType::UInt16},
+        {"unsigned short", ScalarType::UInt16},
+        {"unsigned short int", ScalarType::UInt16},
+        {"uint16", ScalarType::UInt16},
+        {"uint16_t", ScalarType::UInt16},
+        {"int", ScalarType::Int32},
+        {"signed int", ScalarType::Int32},
+        {"int32", ScalarType::Int32},
+        {"int32_t", ScalarType::Int32},
+        {"uint", ScalarType::UInt32},
+        {"unsigned int", ScalarType::UInt32},
+        {"uint32", ScalarType::UInt32},
+        {"uint32_t", ScalarType::UInt32},
+        {"longlong", ScalarType::Int64},
+        {"long long", ScalarType::Int64},
+        {"long long int", ScalarType::Int64},
+        {"signed long long", ScalarType::Int64},
+        {"signed long long int", ScalarType::Int64},
+        {"int64", ScalarType::Int64},
+        {"int64_t", ScalarType::Int64},
+        {"ulonglong", ScalarType::UInt64},
+        {"unsigned long long", ScalarType::UInt64},
+        {"unsigned long long int", ScalarType::UInt64},
+        {"uint64", ScalarType::UInt64},
+        {"uint64_t", ScalarType::UInt64},
+        {"float", ScalarType::Float32},
+        {"double", ScalarType::Float64},
+    };
+    for (const Spelling& s : kSpellings) {
+        if (s.name == text) {
+            return s.type;
+        }
+    }
+    return std::nullopt;
+}
+
+/// Converts stored voxel values, in raster order, into the labels of a stack; rejects the first
+/// value that is not an integer label 0..65535 naming its voxel (i,j,k). Real values within 1e-4
+/// of an integer are rounded (float data written through resampling code).
+class LabelDecoder {
+public:
+    LabelDecoder(ScalarType type,
+                 bool swap,
+                 SliceStack& stack,
+                 std::string where,
+                 const ProgressFn& progress)
+        : type_(type), swap_(swap), stack_(stack), where_(std::move(where)), progress_(progress) {}
+
+    /// Converts `count` stored values starting at `bytes` (count * scalar_bytes(type) bytes).
+    void decode(const unsigned char* bytes, std::size_t count) {
+        switch (type_) {
+            case ScalarType::Int8:
+                return decode_as<std::int8_t>(bytes, count);
+            case ScalarType::UInt8:
+                return decode_as<std::uint8_t>(bytes, count);
+            case ScalarType::Int16:
+                return decode_as<std::int16_t>(bytes, count);
+            case ScalarType::UInt16:
+                return decode_as<std::uint16_t>(bytes, count);
+            case ScalarType::Int32:
+                return decode_as<std::int32_t>(bytes, count);
+            case ScalarType::UInt32:
+                return decode_as<std::uint32_t>(bytes, count);
+            case ScalarType::Int64:
+                return decode_as<std::int64_t>(bytes, count);
+            case ScalarType::UInt64:
+                return decode_as<std::uint64_t>(bytes, count);
+            case ScalarType::Float32:
+                return decode_as<float>(bytes, count);
+            case ScalarType::Float64:
+                return decode_as<double>(bytes, count);
+        }
+    }
+
+    /// Converts one value given as a number (ascii encoding).
+    void decode_value(double value) {
+        store_real(value);
+        report_progress();
+    }
+
+private:
+    template <typename T>
+    void decode_as(const unsigned char* bytes, std::size_t count) {
+        for (std::size_t n = 0; n < count; ++n, bytes += sizeof(T)) {
+            const T stored = load<T>(bytes, swap_);
+            if constexpr (std::is_integral_v<T>) {
+                if (!std::in_range<std::uint16_t>(stored)) {
+                    reject(std::to_string(stored));
+                }
+                stack_.labels[next_++] = static_cast<std::uint16_t>(stored);
+            } else {
+                store_real(static_cast<double>(stored));
+            }
+        }
+        report_progress();
+    }
+
+    void store_real(double value) {
+        const double rounded = std::nearbyint(value);
+        if (!std::isfinite(value) || std::abs(value - rounded) > 1e-4 || rounded < 0.0 ||
+            rounded > 65535.0) {
+            reject(format_number(value));
+        }
+        stack_.labels[next_++] = static_cast<std::uint16_t>(rounded);
+    }
+
+    [[noreturn]] void reject(const std::string& value) const {
+        const std::size_t slice = stack_.slice_size();
+        const std::size_t k = next_ / slice;
+        const std::size_t j = (next_ % slice) / stack_.width;
+        const std::size_t i = next_ % stack_.width;
+        throw Error(ErrorCode::InvalidInput, where_ + ": voxel (" + std::to_string(i) + "," +
+                                                 std::to_string(j) + "," + std::to_string(k) +
+                                                 ") has value " + value +
+                                                 ", expected an integer label 0..65535");
+    }
+
+    void report_progress() {
+        if (!progress_) {
+            return;
+        }
+        const std::size_t done = next_ / stack_.slice_size();
+        while (slices_reported_ < done) {
+            progress_("slices", ++slices_reported_, stack_.depth);
+        }
+    }
+
+    ScalarType type_;
+    bool swap_;
+    SliceStack& stack_;
+    std::string where_;
+    const ProgressFn& progress_;
+    std::size_t next_ = 0;
+    std::size_t slices_reported_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Header
+
+struct NrrdHeader {
+    std::map<std::string, std::string> fields;  // canonical field name -> description
+    std::vector<std::pair<std::string, std::string>> key_values;
+    bool has_blank_line = false;  // false: the header ran to the end of the file
+};
+
+/// Maps the spellings the format allows (older versions drop the spaces) to one name.
+std::string canonical_field(std::string_view name) {
+    static const std::map<std::string_view, std::string_view> kAliases = {
+        {"centerings", "centers"}, {"blocksize", "block size"}, {"oldmin", "old min"},
+        {"oldmax", "old max"},     {"datafile", "data file"},   {"lineskip", "line skip"},
+        {"byteskip", "byte skip"}, {"axismins", "axis mins"},   {"axismaxs", "axis maxs"},
+    };
+    const auto it = kAliases.find(name);
+    return std::string(it != kAliases.end() ? it->second : name);
+}
+
+bool is_known_field(const std::string& name) {
+    static const std::set<std::string> kFields = {
+        "content",
+        "type",
+        "dimension",
+        "block size",
+        "encoding",
+        "endian",
+        "min",
+        "max",
+        "old min",
+        "old max",
+        "data file",
+        "line skip",
+        "byte skip",
+        "number",
+        "sample units",
+        "sizes",
+        "spacings",
+        "thicknesses",
+        "axis mins",
+        "axis maxs",
+        "centers",
+        "labels",
+        "units",
+        "kinds",
+        "space",
+        "space dimension",
+        "space units",
+        "space origin",
+        "space directions",
+        "measurement frame",
+    };
+    return kFields.count(name) != 0;
+}
+
+/// Reads one line ('\n' or "\r\n" terminated); false at the end of the file.
+bool read_line(std::istream& in, std::string& line, std::size_t& total, const std::string& where) {
+    line.clear();
+    std::streambuf* buffer = in.rdbuf();
+    bool is_any = false;
+    for (;;) {
+        const int ch = buffer->sbumpc();
+        if (ch == std::char_traits<char>::eof()) {
+            in.setstate(std::ios::eofbit);
+            break;
+        }
+        is_any = true;
+        if (++total > kMaxHeaderBytes) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": header longer than 1 MiB without the blank line that ends it");
+        }
+        if (ch == '\n') {
+            break;
+        }
+        line.push_back(static_cast<char>(ch));
+    }
+    if (!line.empty() && line.back() == '\r') {
+        line.pop_back();
+    }
+    return is_any;
+}
+
+NrrdHeader read_header(std::istream& in, const std::string& where, Report& report) {
+    NrrdHeader header;
+    std::string line;
+    std::size_t total = 0;
+    if (!read_line(in, line, total, where) || line.size() < 4 || line.compare(0, 4, "NRRD") != 0) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": bad magic, expected a first line \"NRRD0001\" .. \"NRRD0005\"");
+    }
+    if (line.size() != 8 || line.compare(0, 7, "NRRD000") != 0 || line[7] < '1' || line[7] > '5') {
+        throw Error(ErrorCode::Unsupported, where + ": magic \"" + line.substr(0, 16) +
+                                                "\", expected NRRD0001 .. NRRD0005");
+    }
+    int line_number = 1;
+    while (read_line(in, line, total, where)) {
+        ++line_number;
+        if (line.empty()) {
+            header.has_blank_line = true;
+            break;
+        }
+        if (line.front() == '#') {
+            continue;
+        }
+        const std::string at = where + ": header line " + std::to_string(line_number);
+        const std::size_t colon = line.find(':');
+        if (colon == std::string::npos || colon == 0) {
+            throw Error(ErrorCode::InvalidInput,
+                        at + ": \"" + line.substr(0, 80) +
+                            "\" is neither \"field: value\" nor \"key:=value\"");
+        }
+        if (colon + 1 < line.size() && line[colon + 1] == '=') {
+            header.key_values.emplace_back(line.substr(0, colon), line.substr(colon + 2));
+            continue;
+        }
+        const std::string name = canonical_field(trim(std::string_view(line).substr(0, colon)));
+        const std::string value(trim(std::string_view(line).substr(colon + 1)));
+        if (!is_known_field(name)) {
+            report.warn("input", at, "ignored unknown NRRD field '" + name + "'");
+            continue;
+        }
+        if (!header.fields.emplace(name, value).second) {
+            throw Error(ErrorCode::InvalidInput,
+                        at + ": header field '" + name + "' given twice, expected once");
+        }
+        if (name == "data file" && value.rfind("LIST", 0) == 0) {
+            break;  // note: the lines that follow are data file names, not fields
+        }
+    }
+    return header;
+}
+
+/// One entry per axis of a per-axis field: "(x,y,z)" vectors, quoted strings or bare words.
+std::vector<std::string> split_axis_values(std::string_view text,
+                                           const std::string& field,
+                                           const std::string& where) {
+    std::vector<std::string> values;
+    std::size_t n = 0;
+    while (n < text.size()) {
+        if (text[n] == ' ' || text[n] == '\t') {
+            ++n;
+            continue;
+        }
+        const char open = text[n];
+        if (open == '(' || open == '"') {
+            const char close = open == '(' ? ')' : '"';
+            const std::size_t end = text.find(close, n + 1);
+            if (end == std::string_view::npos) {
+                throw Error(ErrorCode::InvalidInput,
+                            where + ": header field '" + field + "': missing '" + close + "'");
+            }
+            values.emplace_back(text.substr(n, end + 1 - n));
+            n = end + 1;
+        } else {
+            const std::size_t start = n;
+            while (n < text.size() && text[n] != ' ' && text[n] != '\t') {
+                ++n;
+            }
+            values.emplace_back(text.substr(start, n - start));
+        }
+    }
+    return values;
+}
+
+/// "(x,y,z)" with `size` components.
+std::optional<std::vector<double>> parse_vector(std::string_view text, std::size_t size) {
+    text = trim(text);
+    if (text.size() < 2 || text.front() != '(' || text.back() != ')') {
+        return std::nullopt;
+    }
+    text = text.substr(1, text.size() - 2);
+    std::vector<double> values;
+    std::size_t start = 0;
+    for (;;) {
+        const std::size_t comma = text.find(',', start);
+        const auto value = parse_double(text.substr(start, comma - start));
+        if (!value || !std::isfinite(*value)) {
+            return std::nullopt;
+        }
+        values.push_back(*value);
+        if (comma == std::string_view::npos) {
+            break;
+        }
+        start = comma + 1;
+    }
+    if (values.size() != size) {
+        return std::nullopt;
+    }
+    return values;
+}
+
+struct Space {
+    std::string frame;     // "LPS", "RAS", "LAS", ... or "none"
+    Vec3 to_lps{1, 1, 1};  // sign per world axis converting to LPS
+    bool is_patient = true;
+};
+
+std::optional<Space> parse_space(std::string_view name) {
+    struct Named {
+        std::string_view long_name, short_name, frame;
+        Vec3 to_lps;
+    };
+    static constexpr Named kPatientSpaces[] = {
+        {"left-posterior-superior", "LPS", "LPS", {1, 1, 1}},
+        {"right-anterior-superior", "RAS", "RAS", {-1, -1, 1}},
+        {"left-anterior-superior", "LAS", "LAS", {1, -1, 1}},
+    };
+    for (const Named& s : kPatientSpaces) {
+        if (name == s.long_name || name == s.short_name) {
+            return Space{std::string(s.frame), s.to_lps, true};
+        }
+    }
+    if (name == "scanner-xyz" || name == "3D-right-handed" || name == "3D-left-handed") {
+        return Space{std::string(name), {1, 1, 1}, false};
+    }
+    return std::nullopt;
+}
+
+double unit_to_mm(std::string_view unit) {
+    if (unit == "mm" || unit.empty()) {
+        return 1.0;
+    }
+    if (unit == "m") {
+        return 1000.0;
+    }
+    if (unit == "cm") {
+        return 10.0;
+    }
+    if (unit == "um" || unit == "micron" || unit == "microns") {
+        return 0.001;
+    }
+    return 0.0;
+}
+
+bool is_spatial_kind(std::string_view kind) {
+    return kind == "domain" || kind == "space" || kind == "???" || kind == "none";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Data streams
+
+/// Inflates a gzip (or zlib) stream read from `in`.
+class Inflater {
+public:
+    Inflater(std::istream& in, std::string where) : in_(in), where_(std::move(where)) {
+        // note: windowBits 15 + 32: accept both gzip and zlib wrappers
+        if (inflateInit2(&stream_, 15 + 32) != Z_OK) {
+            throw Error(ErrorCode::Internal, where_ + ": zlib: inflateInit2 failed");
+        }
+    }
+    ~Inflater() { inflateEnd(&stream_); }
+    Inflater(const Inflater&) = delete;
+    Inflater& operator=(const Inflater&) = delete;
+
+    /// Inflates up to `size` bytes; fewer only if the compressed data ends early.
+    std::size_t read(unsigned char* out, std::size_t size) {
+        stream_.next_out = out;
+        stream_.avail_out = static_cast<uInt>(size);
+        while (stream_.avail_out > 0 && !is_done_) {
+            if (stream_.avail_in == 0 && !refill()) {
+                break;
+            }
+            const int status = inflate(&stream_, Z_NO_FLUSH);
+            if (status == Z_STREAM_END) {
+                // note: concatenated gzip members are one stream (as gunzip reads them)
+                if (stream_.avail_in == 0 && !refill()) {
+                    is_done_ = true;
+                } else if (inflateReset(&stream_) != Z_OK) {
+                    throw Error(ErrorCode::Internal, where_ + ": zlib: inflateReset failed");
+                }
+            } else if (status == Z_DATA_ERROR || status == Z_NEED_DICT) {
+                throw Error(ErrorCode::InvalidInput,
+                            where_ + ": corrupt gzip data: " +
+                                (stream_.msg != nullptr ? stream_.msg : "invalid stream"));
+            } else if (status == Z_MEM_ERROR) {
+                throw Error(ErrorCode::Internal, where_ + ": zlib: out of memory");
+            }
+        }
+        return size - stream_.avail_out;
+    }
+
+    /// After the voxel data: lets zlib check the member's CRC. A missing trailer is tolerated
+    /// (the voxel data was complete), a wrong one is not.
+    void check_trailer() {
+        unsigned char scratch[256];
+        while (!is_done_) {
+            stream_.next_out = scratch;
+            stream_.avail_out = sizeof(scratch);
+            if (stream_.avail_in == 0 && !refill()) {
+                return;
+            }
+            const int status = inflate(&stream_, Z_NO_FLUSH);
+            if (status == Z_STREAM_END) {
+                return;
+            }
+            if (status == Z_DATA_ERROR) {
+                throw Error(ErrorCode::InvalidInput,
+                            where_ + ": corrupt gzip data after the voxel data: " +
+                                (stream_.msg != nullptr ? stream_.msg : "invalid stream"));
+            }
+            if (status != Z_OK || stream_.avail_out < sizeof(scratch)) {
+                return;  // more data than the header promised: ignored
+            }
+        }
+    }
+
+private:
+    bool refill() {
+        in_.read(reinterpret_cast<char*>(buffer_.data()), buffer_.size());
+        const auto got = in_.gcount();
+        if (in_.bad()) {
+            throw Error(ErrorCode::Io, where_ + ": read error");
+        }
+        stream_.next_in = buffer_.data();
+        stream_.avail_in = static_cast<uInt>(got);
+        return got > 0;
+    }
+
+    std::istream& in_;
+    std::string where_;
+    z_stream stream_{};
+    std::array<unsigned char, 1 << 16> buffer_{};
+    bool is_done_ = false;
+};
+
+std::size_t read_raw(std::istream& in,
+                     unsigned char* out,
+                     std::size_t size,
+                     const std::string& where) {
+    in.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(size));
+    if (in.bad()) {
+        throw Error(ErrorCode::Io, where + ": read error");
+    }
+    return static_cast<std::size_t>(in.gcount());
+}
+
+void skip_lines(std::istream& in, std::int64_t count, const std::string& where) {
+    std::streambuf* buffer = in.rdbuf();
+    for (std::int64_t line = 0; line < count; ++line) {
+        for (;;) {
+            const int ch = buffer->sbumpc();
+            if (ch == std::char_traits<char>::eof()) {
+                throw Error(ErrorCode::InvalidInput,
+                            where + ": truncated: file ends after " + std::to_string(line) +
+                                " of the " + std::to_string(count) + " lines of 'line skip'");
+            }
+            if (ch == '\n') {
+                break;
+            }
+        }
+    }
+}
+
+/// Streams `expected` voxel bytes from `read(buffer, size)` into the decoder.
+template <typename ReadFn>
+void decode_stream(ReadFn&& read,
+                   std::uint64_t expected,
+                   std::size_t value_bytes,
+                   LabelDecoder& decoder,
+                   const std::string& where) {
+    std::vector<unsigned char> chunk(std::min<std::uint64_t>(expected, kChunkBytes));
+    std::uint64_t found = 0;
+    while (found < expected) {
+        const std::size_t ask = std::min<std::uint64_t>(expected - found, chunk.size());
+        const std::size_t got = read(chunk.data(), ask);
+        found += got;
+        if (got < ask) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": truncated: expected " + std::to_string(expected) +
+                            " bytes of voxel data, found " + std::to_string(found));
+        }
+        decoder.decode(chunk.data(), got / value_bytes);
+    }
+}
+
+void decode_ascii(std::istream& in,
+                  std::uint64_t expected_values,
+                  LabelDecoder& decoder,
+                  const std::string& where) {
+    std::streambuf* buffer = in.rdbuf();
+    std::string token;
+    std::uint64_t found = 0;
+    int ch = buffer->sbumpc();
+    while (found < expected_values) {
+        while (ch != std::char_traits<char>::eof() && (std::isspace(ch) != 0 || ch == ',')) {
+            ch = buffer->sbumpc();
+        }
+        if (ch == std::char_traits<char>::eof()) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": truncated: expected " + std::to_string(expected_values) +
+                            " ascii voxel values, found " + std::to_string(found));
+        }
+        token.clear();
+        while (ch != std::char_traits<char>::eof() && std::isspace(ch) == 0 && ch != ',') {
+            if (token.size() < 64) {
+                token.push_back(static_cast<char>(ch));
+            }
+            ch = buffer->sbumpc();
+        }
+        const auto value = parse_double(token);
+        if (!value) {
+            throw Error(ErrorCode::InvalidInput, where + ": ascii voxel value " +
+                                                     std::to_string(found) + " \"" + token +
+                                                     "\" is not a number");
+        }
+        decoder.decode_value(*value);
+        ++found;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3D Slicer segmentation metadata
+
+struct Segment {
+    std::string name;
+    std::optional<ColorSrgb8> color;
+    std::optional<std::int64_t> label_value;
+};
+
+std::map<int, Segment> parse_segments(const NrrdHeader& header, const std::string& where) {
+    std::map<int, Segment> segments;
+    for (const auto& [key, value] : header.key_values) {
+        if (key.rfind("Segment", 0) != 0) {
+            continue;
+        }
+        const std::size_t underscore = key.find('_');
+        if (underscore == std::string::npos || underscore == 7) {
+            continue;
+        }
+        const auto index = parse_int(std::string_view(key).substr(7, underscore - 7));
+        if (!index || *index < 0 || *index > 1'000'000) {
+            continue;
+        }
+        const std::string_view what = std::string_view(key).substr(underscore + 1);
+        Segment& segment = segments[static_cast<int>(*index)];
+        const std::string at = where + ": " + key;
+        if (what == "Name") {
+            segment.name = std::string(trim(value));
+        } else if (what == "Color") {
+            const std::vector<std::string_view> words = split_words(value);
+            ColorSrgb8 color{};
+            if (words.size() != 3) {
+                throw Error(ErrorCode::InvalidInput,
+                            at + " = \"" + value + "\", expected three numbers 0..1");
+            }
+            for (int c = 0; c < 3; ++c) {
+                const auto component = parse_double(words[c]);
+                if (!component || !(*component >= 0.0 && *component <= 1.0)) {
+                    throw Error(ErrorCode::InvalidInput,
+                                at + " = \"" + value + "\", expected three numbers 0..1");
+                }
+                color[c] = static_cast<std::uint8_t>(std::lround(255.0 * *component));
+            }
+            segment.color = color;
+        } else if (what == "LabelValue") {
+            const auto label = parse_int(value);
+            if (!label || *label < 1 || *label > 65535) {
+                throw Error(ErrorCode::InvalidInput,
+                            at + " = \"" + value + "\", expected a label value 1..65535");
+            }
+            segment.label_value = *label;
+        }
+    }
+    return segments;
+}
+
+std::vector<LabelInfo> segment_label_table(const std::map<int, Segment>& segments,
+                                           const std::string& where,
+                                           Report& report) {
+    std::vector<LabelInfo> table;
+    for (const auto& [index, segment] : segments) {
+        // note: as 3D Slicer, a segment without LabelValue has label 1 (one segment per layer)
+        const auto value = static_cast<std::uint16_t>(segment.label_value.value_or(1));
+        const auto same = std::find_if(table.begin(), table.end(),
+                                       [&](const LabelInfo& l) { return l.value == value; });
+        if (same != table.end()) {
+            report.warn("input", where,
+                        "segments '" + same->name + "' and '" + segment.name +
+                            "' share label value " + std::to_string(value) +
+                            "; keeping the first name");
+            continue;
+        }
+        LabelInfo info;
+        info.value = value;
+        info.name = segment.name.empty() ? "Segment_" + std::to_string(index) : segment.name;
+        info.color = segment.color.value_or(palette_color(value));
+        table.push_back(std::move(info));
+    }
+    std::sort(table.begin(), table.end(),
+              [](const LabelInfo& a, const LabelInfo& b) { return a.value < b.value; });
+    return table;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+const std::string* find_field(const NrrdHeader& header, const std::string& name) {
+    const auto it = header.fields.find(name);
+    return it != header.fields.end() ? &it->second : nullptr;
+}
+
+const std::string& require_field(const NrrdHeader& header,
+                                 const std::string& name,
+                                 const std::string& where) {
+    const std::string* value = find_field(header, name);
+    if (value == nullptr) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": header field '" + name + "' is missing, expected it");
+    }
+    return *value;
+}
+
+/// Per-axis field values, checked to number `dimension`.
+std::vector<std::string> axis_values(const std::string& value,
+                                     const std::string& field,
+                                     std::size_t dimension,
+                                     const std::string& where) {
+    std::vector<std::string> values = split_axis_values(value, field, where);
+    if (values.size() != dimension) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": header field '" + field + "' has " + std::to_string(values.size()) +
+                        " values, expected " + std::to_string(dimension) + " (dimension)");
+    }
+    return values;
+}
+
+}  // namespace
+
+SliceStack read_nrrd(const std::filesystem::path& file,
+                     const ReadOptions& options,
+                     Report& report) {
+    const std::string where = file.filename().string();
+    std::ifstream in(file, std::ios::binary);
+    if (!in) {
+        throw Error(ErrorCode::Io,
+                    where + ": cannot open " + file.string() + ": " + std::strerror(errno));
+    }
+    const NrrdHeader header = read_header(in, where, report);
+
+    // Basic fields.
+    const auto dimension_value = parse_int(require_field(header, "dimension", where));
+    if (!dimension_value || *dimension_value < 1 || *dimension_value > 16) {
+        throw Error(ErrorCode::InvalidInput, where + ": header field 'dimension' is \"" +
+                                                 require_field(header, "dimension", where) +
+                                                 "\", expected 1..16");
+    }
+    const auto dimension = static_cast<std::size_t>(*dimension_value);
+
+    const std::string& type_name = require_field(header, "type", where);
+    if (type_name == "block") {
+        throw Error(ErrorCode::Unsupported,
+                    where + ": type 'block' is not supported, expected an integer or real type");
+    }
+    const std::optional<ScalarType> type = parse_type(type_name);
+    if (!type) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": header field 'type' is \"" + type_name +
+                        "\", expected a NRRD scalar type (uchar, short, ushort, int, uint, "
+                        "longlong, ulonglong, float, double, ...)");
+    }
+    const std::size_t value_bytes = scalar_bytes(*type);
+
+    const std::string& encoding_name = require_field(header, "encoding", where);
+    enum class Encoding { Raw, Gzip, Ascii } encoding;
+    if (encoding_name == "raw") {
+        encoding = Encoding::Raw;
+    } else if (encoding_name == "gzip" || encoding_name == "gz") {
+        encoding = Encoding::Gzip;
+    } else if (encoding_name == "ascii" || encoding_name == "text" || encoding_name == "txt") {
+        encoding = Encoding::Ascii;
+    } else if (encoding_name == "bzip2" || encoding_name == "bz2" || encoding_name == "hex" ||
+               encoding_name == "zrl") {
+        throw Error(ErrorCode::Unsupported, where + ": encoding '" + encoding_name +
+                                                "' is not supported, expected raw, gzip or ascii");
+    } else {
+        throw Error(ErrorCode::InvalidInput, where + ": unknown encoding '" + encoding_name +
+                                                 "', expected raw, gzip or ascii");
+    }
+
+    bool swap = false;
+    if (const std::string* endian = find_field(header, "endian")) {
+        if (*endian != "little" && *endian != "big") {
+            throw Error(ErrorCode::InvalidInput, where + ": header field 'endian' is \"" + *endian +
+                                                     "\", expected little or big");
+        }
+        swap = (*endian == "big") != (std::endian::native == std::endian::big);
+    } else if (value_bytes > 1 && encoding != Encoding::Ascii) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": header field 'endian' is missing, expected it for type '" +
+                        type_name + "' with encoding '" + encoding_name + "'");
+    }
+
+    // Sizes and axes.
+    const std::vector<std::string> size_words =
+        axis_values(require_field(header, "sizes", where), "sizes", dimension, where);
+    std::vector<std::uint64_t> sizes;
+    for (std::size_t axis = 0; axis < dimension; ++axis) {
+        const auto size = parse_int(size_words[axis]);
+        if (!size || *size < 0) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": header field 'sizes' has \"" + size_words[axis] + "\" on axis " +
+                            std::to_string(axis) + ", expected a positive integer");
+        }
+        sizes.push_back(static_cast<std::uint64_t>(*size));
+    }
+
+    std::optional<Space> space;
+    std::size_t space_dimension = 0;
+    if (const std::string* name = find_field(header, "space")) {
+        space = parse_space(*name);
+        if (!space) {
+            if (name->find("time") != std::string::npos || *name == "RAST" || *name == "LAST" ||
+                *name == "LPST") {
+                throw Error(ErrorCode::Unsupported,
+                            where + ": space '" + *name +
+                                "' has a time axis; expected a 3D space (left-posterior-superior, "
+                                "right-anterior-superior, left-anterior-superior)");
+            }
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": unknown space '" + *name +
+                            "', expected left-posterior-superior (LPS), right-anterior-superior "
+                            "(RAS), left-anterior-superior (LAS), scanner-xyz or 3D-*-handed");
+        }
+        space_dimension = 3;
+        if (find_field(header, "space dimension") != nullptr) {
+            throw Error(ErrorCode::InvalidInput,
+                        where +
+                            ": header fields 'space' and 'space dimension' are both given, "
+                            "expected one of them");
+        }
+    } else if (const std::string* value = find_field(header, "space dimension")) {
+        const auto n = parse_int(*value);
+        if (!n || *n < 1) {
+            throw Error(ErrorCode::InvalidInput, where + ": header field 'space dimension' is \"" +
+                                                     *value + "\", expected a positive integer");
+        }
+        if (*n != 3) {
+            throw Error(ErrorCode::Unsupported,
+                        where + ": space dimension " + *value + ", expected 3 (a 3D world)");
+        }
+        space_dimension = 3;
+        space = Space{"none", {1, 1, 1}, false};
+    }
+
+    std::vector<std::optional<Vec3>> directions(dimension);
+    const std::string* directions_field = find_field(header, "space directions");
+    if (directions_field != nullptr) {
+        if (space_dimension == 0) {
+            throw Error(ErrorCode::InvalidInput,
+                        where +
+                            ": header field 'space directions' without 'space' or 'space "
+                            "dimension', expected one of them first");
+        }
+        const std::vector<std::string> words =
+            axis_values(*directions_field, "space directions", dimension, where);
+        for (std::size_t axis = 0; axis < dimension; ++axis) {
+            if (words[axis] == "none") {
+                continue;
+            }
+            const auto v = parse_vector(words[axis], space_dimension);
+            if (!v) {
+                throw Error(ErrorCode::InvalidInput,
+                            where + ": header field 'space directions' has \"" + words[axis] +
+                                "\" on axis " + std::to_string(axis) +
+                                ", expected none or a vector (x,y,z) of finite numbers");
+            }
+            directions[axis] = Vec3{(*v)[0], (*v)[1], (*v)[2]};
+        }
+    }
+
+    std::vector<std::string> kinds;
+    if (const std::string* value = find_field(header, "kinds")) {
+        kinds = axis_values(*value, "kinds", dimension, where);
+    }
+
+    // Spatial axes: those with a direction, else those of a spatial kind, else all.
+    std::vector<std::size_t> spatial;
+    for (std::size_t axis = 0; axis < dimension; ++axis) {
+        const bool is_spatial = directions_field != nullptr ? directions[axis].has_value()
+                                : !kinds.empty()            ? is_spatial_kind(kinds[axis])
+                                                            : true;
+        if (is_spatial) {
+            spatial.push_back(axis);
+        }
+    }
+    const std::map<int, Segment> segments = parse_segments(header, where);
+    for (std::size_t axis = 0; axis < dimension; ++axis) {
+        if (std::find(spatial.begin(), spatial.end(), axis) != spatial.end()) {
+            continue;
+        }
+        if (sizes[axis] == 0) {
+            throw Error(ErrorCode::InvalidInput, where + ": header field 'sizes' has 0 on axis " +
+                                                     std::to_string(axis) +
+                                                     ": empty dimension, expected at least 1");
+        }
+        if (sizes[axis] > 1) {
+            const std::string kind = kinds.empty() ? "no kind" : "kind '" + kinds[axis] + "'";
+            if (!segments.empty()) {
+                throw Error(ErrorCode::Unsupported,
+                            where + ": segmentation with " + std::to_string(sizes[axis]) +
+                                " layers (4D seg.nrrd, overlapping segments on axis " +
+                                std::to_string(axis) +
+                                "); expected a single layer (in 3D Slicer: Segmentations module, "
+                                "'Collapse segments to as few layers as possible')");
+            }
+            throw Error(ErrorCode::Unsupported, where + ": non-spatial axis " +
+                                                    std::to_string(axis) + " (" + kind + ") has " +
+                                                    std::to_string(sizes[axis]) +
+                                                    " samples; expected a single 3D label volume");
+        }
+    }
+    if (spatial.size() < 2 || spatial.size() > 3) {
+        throw Error(ErrorCode::Unsupported,
+                    where + ": " + std::to_string(spatial.size()) +
+                        " spatial axes, expected 2 (one slice) or 3 (a label volume)");
+    }
+    const std::uint64_t width = sizes[spatial[0]];
+    const std::uint64_t height = sizes[spatial[1]];
+    const std::uint64_t depth = spatial.size() == 3 ? sizes[spatial[2]] : 1;
+    check_stack_dimensions(width, height, depth, where, options.max_bytes);
+
+    // World: directions (or spacings) and origin, converted to LPS millimetres.
+    double unit_mm = 1.0;
+    if (const std::string* value = find_field(header, "space units")) {
+        for (const std::string& unit : split_axis_values(*value, "space units", where)) {
+            const std::string bare =
+                unit.size() >= 2 && unit.front() == '"' ? unit.substr(1, unit.size() - 2) : unit;
+            const double scale = unit_to_mm(bare);
+            if (scale == 0.0) {
+                throw Error(ErrorCode::Unsupported,
+                            where + ": space unit \"" + bare + "\", expected mm, cm, m or um");
+            }
+            unit_mm = scale;  // note: one unit for all world axes; mixed units are not seen
+        }
+    }
+    Vec3 spacings{1, 1, 1};
+    if (directions_field == nullptr) {
+        if (const std::string* value = find_field(header, "spacings")) {
+            const std::vector<std::string> words =
+                axis_values(*value, "spacings", dimension, where);
+            for (std::size_t s = 0; s < spatial.size(); ++s) {
+                const auto parsed = parse_double(words[spatial[s]]);
+                if (!parsed) {
+                    throw Error(ErrorCode::InvalidInput,
+                                where + ": header field 'spacings' has \"" + words[spatial[s]] +
+                                    "\" on axis " + std::to_string(spatial[s]) +
+                                    ", expected a number");
+                }
+                spacings[static_cast<int>(s)] = *parsed;
+            }
+            check_spacing(spacings, where + ": spacings");
+        } else {
+            report.warn("input", where, "no space directions or spacings; using 1 mm voxels");
+        }
+    }
+    Affine3 affine;
+    for (std::size_t s = 0; s < spatial.size(); ++s) {
+        Vec3 column{};
+        if (directions_field != nullptr) {
+            column = *directions[spatial[s]];
+        } else {
+            column[static_cast<int>(s)] = spacings[static_cast<int>(s)];
+        }
+        for (int r = 0; r < 3; ++r) {
+            affine.linear[r][s] = column[r] * unit_mm;
+        }
+    }
+    if (spatial.size() == 2) {
+        // note: one slice: the third axis is the unit normal (1 mm), right-handed
+        const Vec3 normal = cross(affine.column(0), affine.column(1));
+        const double length = norm(normal);
+        for (int r = 0; r < 3; ++r) {
+            affine.linear[r][2] = length > 0 ? normal[r] / length : (r == 2 ? 1.0 : 0.0);
+        }
+    }
+    if (const std::string* value = find_field(header, "space origin")) {
+        if (space_dimension == 0) {
+            throw Error(ErrorCode::InvalidInput,
+                        where +
+                            ": header field 'space origin' without 'space' or 'space "
+                            "dimension', expected one of them first");
+        }
+        const auto origin = parse_vector(*value, space_dimension);
+        if (!origin) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": header field 'space origin' is \"" + *value +
+                            "\", expected a vector (x,y,z) of finite numbers");
+        }
+        for (int r = 0; r < 3; ++r) {
+            affine.translation[r] = (*origin)[r] * unit_mm;
+        }
+    }
+    const std::string frame = space ? space->frame : "none";
+    if (space) {
+        for (int r = 0; r < 3; ++r) {
+            for (int c = 0; c < 3; ++c) {
+                affine.linear[r][c] *= space->to_lps[r];
+            }
+            affine.translation[r] *= space->to_lps[r];
+        }
+        if (!space->is_patient && frame != "none") {
+            report.warn("input", where,
+                        "space '" + frame + "' is not patient-based; its axes are used as LPS");
+        }
+    }
+    const Vec3 spacing{norm(affine.column(0)), norm(affine.column(1)), norm(affine.column(2))};
+    check_spacing(spacing,
+                  where + ": " + (directions_field != nullptr ? "space directions" : "spacings"));
+    if (std::abs(affine.determinant()) <= 1e-12 * spacing.x * spacing.y * spacing.z) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": space directions are coplanar, expected three independent axes");
+    }
+
+    // Where the data is.
+    std::int64_t line_skip = 0;
+    if (const std::string* value = find_field(header, "line skip")) {
+        const auto n = parse_int(*value);
+        if (!n || *n < 0) {
+            throw Error(ErrorCode::InvalidInput, where + ": header field 'line skip' is \"" +
+                                                     *value + "\", expected 0 or more lines");
+        }
+        line_skip = *n;
+    }
+    std::int64_t byte_skip = 0;
+    if (const std::string* value = find_field(header, "byte skip")) {
+        const auto n = parse_int(*value);
+        if (!n || *n < -1) {
+            throw Error(ErrorCode::InvalidInput, where + ": header field 'byte skip' is \"" +
+                                                     *value + "\", expected -1 or more bytes");
+        }
+        byte_skip = *n;
+        if (byte_skip == -1 && encoding != Encoding::Raw) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": 'byte skip: -1' is only allowed with raw encoding, not '" +
+                            encoding_name + "'");
+        }
+    }
+    std::ifstream detached;
+    std::istream* data = &in;
+    std::string data_where = where;
+    if (const std::string* value = find_field(header, "data file")) {
+        if (*value == "LIST" || value->rfind("LIST ", 0) == 0 ||
+            value->find('%') != std::string::npos) {
+            throw Error(ErrorCode::Unsupported,
+                        where + ": 'data file: " + *value +
+                            "' names several data files; expected a single data file");
+        }
+        std::filesystem::path data_path(*value);
+        if (data_path.is_relative()) {
+            data_path = file.parent_path() / data_path;
+        }
+        data_where = where + ": data file " + *value;
+        detached.open(data_path, std::ios::binary);
+        if (!detached) {
+            throw Error(ErrorCode::Io, data_where + ": cannot open " + data_path.string() + ": " +
+                                           std::strerror(errno));
+        }
+        data = &detached;
+    } else if (!header.has_blank_line) {
+        throw Error(ErrorCode::InvalidInput,
+                    where +
+                        ": truncated: the header has no 'data file' and no blank line "
+                        "followed by attached data");
+    }
+
+    SliceStack stack;
+    stack.width = static_cast<std::uint32_t>(width);
+    stack.height = static_cast<std::uint32_t>(height);
+    stack.depth = static_cast<std::uint32_t>(depth);
+    stack.labels.resize(width * height * depth);
+    stack.index_to_world = affine;
+    stack.source = file.string();
+    stack.source_frame = frame;
+    if (!segments.empty()) {
+        stack.label_table = segment_label_table(segments, where, report);
+    }
+
+    const std::uint64_t count = stack.labels.size();
+    const std::uint64_t expected = count * value_bytes;
+    LabelDecoder decoder(*type, swap, stack, data_where, options.progress);
+    skip_lines(*data, line_skip, data_where);
+    if (encoding == Encoding::Gzip) {
+        Inflater inflater(*data, data_where);
+        if (byte_skip > 0) {
+            std::vector<unsigned char> scratch(std::min<std::uint64_t>(byte_skip, kChunkBytes));
+            std::uint64_t skipped = 0;
+            while (skipped < static_cast<std::uint64_t>(byte_skip)) {
+                const std::size_t ask =
+                    std::min<std::uint64_t>(byte_skip - skipped, scratch.size());
+                const std::size_t got = inflater.read(scratch.data(), ask);
+                skipped += got;
+                if (got < ask) {
+                    throw Error(ErrorCode::InvalidInput,
+                                data_where + ": truncated: data ends within the " +
+                                    std::to_string(byte_skip) + " bytes of 'byte skip'");
+                }
+            }
+        }
+        decode_stream(
+            [&](unsigned char* out, std::size_t size) { return inflater.read(out, size); },
+            expected, value_bytes, decoder, data_where);
+        inflater.check_trailer();
+        return stack;
+    }
+    if (byte_skip == -1) {
+        // note: the data are the last `expected` bytes of the file
+        data->seekg(0, std::ios::end);
+        const auto end = static_cast<std::uint64_t>(data->tellg());
+        if (end < expected) {
+            throw Error(ErrorCode::InvalidInput,
+                        data_where + ": truncated: expected " + std::to_string(expected) +
+                            " bytes of voxel data at the end of the file ('byte skip: -1'), "
+                            "found " +
+                            std::to_string(end));
+        }
+        data->seekg(static_cast<std::streamoff>(end - expected));
+    } else if (byte_skip > 0) {
+        data->ignore(byte_skip);
+        if (data->gcount() < byte_skip) {
+            throw Error(ErrorCode::InvalidInput, data_where + ": truncated: file ends within the " +
+                                                     std::to_string(byte_skip) +
+                                                     " bytes of 'byte skip'");
+        }
+    }
+    if (encoding == Encoding::Ascii) {
+        decode_ascii(*data, count, decoder, data_where);
+    } else {
+        decode_stream([&](unsigned char* out,
+                          std::size_t size) { return read_raw(*data, out, size, data_where); },
+                      expected, value_bytes, decoder, data_where);
+    }
+    return stack;
+}
+
+}  // namespace strata::detail

@@ -1,0 +1,174 @@
+// The `strata` executable end to end: exit codes, messages, outputs.
+
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "support/test_paths.h"
+
+namespace strata {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+    int exit_code = -1;
+    std::string out;
+    std::string err;
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::string quote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) {
+        q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    }
+    return q + "'";
+}
+
+CliRun run_cli(const std::vector<std::string>& args) {
+    static int counter = 0;
+    const fs::path dir = test::fresh_temp_dir("cli_run_" + std::to_string(counter++));
+    std::string command = quote(test::cli_path().string());
+    for (const std::string& a : args) {
+        command += " " + quote(a);
+    }
+    command += " >" + quote((dir / "out").string()) + " 2>" + quote((dir / "err").string()) +
+               " </dev/null";
+    const int status = std::system(command.c_str());
+    CliRun run;
+    run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    run.out = slurp(dir / "out");
+    run.err = slurp(dir / "err");
+    return run;
+}
+
+TEST(Cli, HelpOnEveryCommand) {
+    for (const char* command : {"build", "phantom", "info"}) {
+        const CliRun r = run_cli({command, "--help"});
+        EXPECT_EQ(r.exit_code, 0) << command << r.err;
+        EXPECT_NE(r.out.find("--json"), std::string::npos) << command << r.out;
+    }
+    EXPECT_EQ(run_cli({"--help"}).exit_code, 0);
+}
+
+TEST(Cli, UnknownFlagIsUsageError) {
+    const CliRun r = run_cli({"build", "--no-such-flag"});
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(r.err.rfind("strata: error: ", 0), 0u) << r.err;
+}
+
+TEST(Cli, MissingInputIsBadInput) {
+    const CliRun r = run_cli({"info", "/nonexistent/scan.nii.gz"});
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find("strata: error: /nonexistent/scan.nii.gz: no such file or folder"),
+              std::string::npos)
+        << r.err;
+}
+
+TEST(Cli, BadSpacingIsBadInput) {
+    const CliRun r = run_cli(
+        {"build", "--spacing", "1,0,1", "-o", test::fresh_temp_dir("cli_bad_spacing").string()});
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find("--spacing"), std::string::npos) << r.err;
+    const CliRun r2 = run_cli({"build", "--spacing", "1,x,1"});
+    EXPECT_EQ(r2.exit_code, 2);
+    EXPECT_NE(r2.err.find("'x' is not a number"), std::string::npos) << r2.err;
+}
+
+TEST(Cli, CorruptFileIsBadInputNotCrash) {
+    const fs::path dir = test::fresh_temp_dir("cli_corrupt");
+    std::ofstream(dir / "broken.nii.gz", std::ios::binary) << "\x1f\x8b\x08garbage";
+    const CliRun r = run_cli({"info", (dir / "broken.nii.gz").string()});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("strata: error: ", 0), 0u) << r.err;
+}
+
+TEST(Cli, DefaultBuildUsesBuiltInPhantomAndWritesSummary) {
+    const fs::path out = test::fresh_temp_dir("cli_default_build");
+    const CliRun r = run_cli({"build", "-o", out.string(), "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json printed = nlohmann::json::parse(r.out);
+    const nlohmann::json written = nlohmann::json::parse(slurp(out / "summary.json"));
+    EXPECT_EQ(printed, written);
+    EXPECT_GE(written.at("input").at("labels").size(), 2u);
+    for (const auto& label : written.at("input").at("labels")) {
+        EXPECT_GT(label.at("voxels").get<long>(), 0);
+        EXPECT_FALSE(label.at("name").get<std::string>().empty());
+    }
+}
+
+TEST(Cli, PhantomPngAndNiftiReadBackWithSameDims) {
+    const CliRun list = run_cli({"phantom", "--list"});
+    ASSERT_EQ(list.exit_code, 0) << list.err;
+    EXPECT_NE(list.out.find("sphere"), std::string::npos);
+    const fs::path dir = test::fresh_temp_dir("cli_phantom");
+    const CliRun png = run_cli({"phantom", "sphere", "-o", (dir / "png").string(), "--json"});
+    ASSERT_EQ(png.exit_code, 0) << png.err;
+    const CliRun nii =
+        run_cli({"phantom", "sphere", "--format", "nifti", "-o", (dir / "s.nii.gz").string()});
+    ASSERT_EQ(nii.exit_code, 0) << nii.err;
+    const nlohmann::json expected = nlohmann::json::parse(png.out).at("stack");
+    for (const fs::path& input : {dir / "png", dir / "s.nii.gz"}) {
+        const CliRun info = run_cli({"info", input.string(), "--json"});
+        ASSERT_EQ(info.exit_code, 0) << info.err;
+        const nlohmann::json j = nlohmann::json::parse(info.out);
+        EXPECT_EQ(j.at("dims"), expected.at("dims")) << input;
+        ASSERT_EQ(j.at("labels").size(), expected.at("labels").size()) << input;
+        for (std::size_t i = 0; i < j.at("labels").size(); ++i) {
+            EXPECT_EQ(j.at("labels")[i].at("voxels"), expected.at("labels")[i].at("voxels"));
+        }
+    }
+    const CliRun unknown = run_cli({"phantom", "no_such_shape", "-o", (dir / "x").string()});
+    EXPECT_EQ(unknown.exit_code, 2);
+    EXPECT_NE(unknown.err.find("sphere"), std::string::npos) << "should list valid names";
+}
+
+TEST(Cli, BuildReadsEverySharedDataInput) {
+    const fs::path data = test::shared_data_dir();
+    const std::vector<fs::path> inputs = {
+        data / "totalsegmentator_abdomen" / "example_seg.nii.gz",
+        data / "niivue_torso" / "torsoLabel.nii.gz",
+        data / "freesurfer_aparc_aseg",
+        data / "terrain_volcano",
+        data / "pyradiomics_lung_tumor" / "lung2_label.nrrd",
+        data / "pyradiomics_brain_tumor" / "brain1_label.nrrd",
+    };
+    for (const fs::path& input : inputs) {
+        const fs::path out = test::fresh_temp_dir("cli_shared_" + input.stem().string());
+        const CliRun r = run_cli({"build", input.string(), "-o", out.string(), "--json"});
+        ASSERT_EQ(r.exit_code, 0) << input << ": " << r.err;
+        const nlohmann::json j = nlohmann::json::parse(r.out);
+        EXPECT_EQ(j.at("input").at("dims").size(), 3u);
+        EXPECT_FALSE(j.at("input").at("labels").empty()) << input;
+    }
+}
+
+TEST(Cli, LabelSelectionByName) {
+    const fs::path data = test::shared_data_dir() / "totalsegmentator_abdomen";
+    const CliRun r = run_cli({"build", (data / "example_seg.nii.gz").string(), "--color-table",
+                              (data / "class_map_total.json").string(), "--labels", "liver,spleen",
+                              "-o", test::fresh_temp_dir("cli_labels").string(), "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json labels = nlohmann::json::parse(r.out).at("input").at("labels");
+    ASSERT_EQ(labels.size(), 2u);
+    EXPECT_EQ(labels[0].at("name"), "spleen");
+    EXPECT_EQ(labels[1].at("name"), "liver");
+    const CliRun bad =
+        run_cli({"build", (data / "example_seg.nii.gz").string(), "--labels", "no_such_organ", "-o",
+                 test::fresh_temp_dir("cli_labels_bad").string()});
+    EXPECT_EQ(bad.exit_code, 2);
+    EXPECT_NE(bad.err.find("matches no label"), std::string::npos) << bad.err;
+}
+
+}  // namespace
+}  // namespace strata
