@@ -249,11 +249,11 @@ int run_build(const BuildOptions& options) {
     progress.finish();
 
     if (!options.debug_dir.empty()) {
-        const int scale = debug_scale(stack.width, stack.height);
+        const DebugView view = debug_view(stack);
         for (std::uint32_t k = 0; k < stack.depth; ++k) {
             char name[48];
             std::snprintf(name, sizeof(name), "contours_%04u.png", k);
-            write_rgb_png(draw_slice_contours(stack, result.contours, k, scale),
+            write_rgb_png(draw_slice_contours(stack, result.contours, k, view),
                           options.debug_dir / name);
         }
     }

@@ -6,7 +6,6 @@
 //   {"1": {"name": "spleen", "color": [r, g, b]}} with components 0..255 (or all within 0..1).
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -20,6 +19,7 @@
 
 #include "core/error.h"
 #include "input/detail/readers.h"
+#include "input/detail/text.h"
 
 namespace strata::detail {
 
@@ -27,52 +27,13 @@ namespace {
 
 // Colour tables are a few KiB; this only stops a wrongly named huge file from being slurped.
 constexpr std::uintmax_t kMaxTableBytes = std::uintmax_t(64) << 20;
+// Between the fields of a text table line ('\r': a stray carriage return also separates).
+constexpr std::string_view kFieldSeparators = " \t\r";
 
-std::string_view trim(std::string_view text) {
-    const auto is_space = [](char ch) {
-        return ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n' || ch == '\f' || ch == '\v';
-    };
-    while (!text.empty() && is_space(text.front())) {
-        text.remove_prefix(1);
-    }
-    while (!text.empty() && is_space(text.back())) {
-        text.remove_suffix(1);
-    }
-    return text;
-}
-
-std::vector<std::string_view> split_words(std::string_view text) {
-    std::vector<std::string_view> words;
-    std::size_t n = 0;
-    while (n < text.size()) {
-        while (n < text.size() && (text[n] == ' ' || text[n] == '\t' || text[n] == '\r')) {
-            ++n;
-        }
-        const std::size_t start = n;
-        while (n < text.size() && text[n] != ' ' && text[n] != '\t' && text[n] != '\r') {
-            ++n;
-        }
-        if (n > start) {
-            words.push_back(text.substr(start, n - start));
-        }
-    }
-    return words;
-}
-
-std::optional<long long> parse_integer(std::string_view text) {
-    long long value = 0;
-    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size()) {
-        return std::nullopt;
-    }
-    return value;
-}
-
-std::optional<double> parse_real(std::string_view text) {
-    double value = 0;
-    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size() ||
-        !std::isfinite(value)) {
+/// A real number, all of `text`, and finite.
+std::optional<double> parse_finite(std::string_view text) {
+    const auto value = parse_number<double>(text);
+    if (!value || !std::isfinite(*value)) {
         return std::nullopt;
     }
     return value;
@@ -125,7 +86,7 @@ void add_entry(std::vector<LabelInfo>& table,
 }
 
 std::uint8_t color_component(std::string_view word, const std::string& at, const char* expected) {
-    const auto value = parse_integer(word);
+    const auto value = parse_number<long long>(word);
     if (!value || *value < 0 || *value > 255) {
         throw Error(ErrorCode::InvalidInput, at + ": colour component \"" + std::string(word) +
                                                  "\", expected an integer 0..255 (" + expected +
@@ -145,13 +106,14 @@ void parse_itksnap_line(std::string_view line,
         throw Error(ErrorCode::InvalidInput,
                     at + ": label name is not quoted, expected ITK-SNAP fields " + expected);
     }
-    const std::vector<std::string_view> words = split_words(line.substr(0, quote));
+    const std::vector<std::string_view> words =
+        split_words(line.substr(0, quote), kFieldSeparators);
     if (words.size() != 7) {
         throw Error(ErrorCode::InvalidInput, at + ": " + std::to_string(words.size()) +
                                                  " numbers before the label name, expected 7 (" +
                                                  expected + ")");
     }
-    const auto value = parse_integer(words[0]);
+    const auto value = parse_number<long long>(words[0]);
     if (!value) {
         throw Error(ErrorCode::InvalidInput, at + ": label value \"" + std::string(words[0]) +
                                                  "\" is not an integer, expected " + expected);
@@ -160,9 +122,9 @@ void parse_itksnap_line(std::string_view line,
     for (int c = 0; c < 3; ++c) {
         color[c] = color_component(words[1 + c], at, expected);
     }
-    const auto alpha = parse_real(words[4]);
-    const auto visible = parse_integer(words[5]);
-    const auto mesh = parse_integer(words[6]);
+    const auto alpha = parse_finite(words[4]);
+    const auto visible = parse_number<long long>(words[5]);
+    const auto mesh = parse_number<long long>(words[6]);
     if (!alpha || *alpha < 0 || *alpha > 1 || !visible || !mesh) {
         throw Error(
             ErrorCode::InvalidInput,
@@ -176,14 +138,14 @@ void parse_slicer_line(std::string_view line,
                        std::vector<LabelInfo>& table,
                        const std::string& at) {
     const char* expected = "value name r g b a";
-    const std::vector<std::string_view> words = split_words(line);
+    const std::vector<std::string_view> words = split_words(line, kFieldSeparators);
     if (words.size() < 5 || words.size() > 6) {
         throw Error(ErrorCode::InvalidInput, at + ": " + std::to_string(words.size()) +
                                                  " fields, expected 3D Slicer colour table "
                                                  "fields \"" +
                                                  expected + "\"");
     }
-    const auto value = parse_integer(words[0]);
+    const auto value = parse_number<long long>(words[0]);
     if (!value) {
         throw Error(ErrorCode::InvalidInput, at + ": label value \"" + std::string(words[0]) +
                                                  "\" is not an integer, expected \"" + expected +
@@ -296,7 +258,7 @@ std::vector<LabelInfo> parse_json_table(const std::string& text, const std::stri
     std::vector<LabelInfo> table;
     for (const auto& [key, value] : root.items()) {
         const std::string at = where + ":" + std::to_string(line_of_key(text, key));
-        const auto label = parse_integer(key);
+        const auto label = parse_number<long long>(key);
         if (!label) {
             throw Error(ErrorCode::InvalidInput,
                         at + ": key \"" + key + "\" is not an integer label value 0..65535");

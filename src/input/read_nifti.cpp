@@ -13,7 +13,6 @@
 #include <bit>
 #include <cctype>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -29,39 +28,30 @@
 #include "core/atomic_write.h"
 #include "core/error.h"
 #include "input/detail/readers.h"
+#include "input/detail/text.h"
+#include "input/detail/voxel_decode.h"
 #include "input/write_nifti.h"
 
 namespace strata {
 
 namespace {
 
+using detail::format_number;
+using detail::kChunkBytes;
+using detail::LabelDecoder;
+using detail::load;
+using detail::parse_number;
+using detail::ScalarType;
+using detail::ValueScaling;
+
 constexpr std::size_t kNifti1HeaderBytes = 348;
 constexpr std::size_t kNifti2HeaderBytes = 540;
-// note: raw voxel bytes are streamed through a buffer of this size (a multiple of every voxel
-// size), so memory use is bounded by the label images whatever the stored type
-constexpr std::size_t kChunkBytes = std::size_t(1) << 20;
 // Extensions up to this size are read (for a label table); larger gaps before vox_offset are
 // skipped unread.
 constexpr std::uint64_t kMaxExtensionBytes = std::uint64_t(16) << 20;
 
 // ---------------------------------------------------------------------------------------------
 // Small helpers
-
-std::string format_number(double value) {
-    char buffer[64];
-    const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-    return std::string(buffer, result.ptr);
-}
-
-template <typename T>
-T load(const unsigned char* bytes, bool swap) {
-    std::array<unsigned char, sizeof(T)> raw;
-    std::memcpy(raw.data(), bytes, sizeof(T));
-    if (swap) {
-        std::reverse(raw.begin(), raw.end());
-    }
-    return std::bit_cast<T>(raw);
-}
 
 template <typename T>
 void store_le(unsigned char* bytes, T value) {
@@ -71,153 +61,6 @@ void store_le(unsigned char* bytes, T value) {
     }
     std::memcpy(bytes, raw.data(), sizeof(T));
 }
-
-// ---------------------------------------------------------------------------------------------
-// Stored voxel types and their conversion to labels
-
-enum class ScalarType {
-    Int8,
-    UInt8,
-    Int16,
-    UInt16,
-    Int32,
-    UInt32,
-    Int64,
-    UInt64,
-    Float32,
-    Float64
-};
-
-std::size_t scalar_bytes(ScalarType type) {
-    switch (type) {
-        case ScalarType::Int8:
-        case ScalarType::UInt8:
-            return 1;
-        case ScalarType::Int16:
-        case ScalarType::UInt16:
-            return 2;
-        case ScalarType::Int32:
-        case ScalarType::UInt32:
-        case ScalarType::Float32:
-            return 4;
-        case ScalarType::Int64:
-        case ScalarType::UInt64:
-        case ScalarType::Float64:
-            return 8;
-    }
-    return 1;
-}
-
-/// Converts stored voxel values, in raster order, into the labels of a stack; rejects the first
-/// value that is not an integer label 0..65535 (after scaling) naming its voxel (i,j,k). Values
-/// within 1e-4 of an integer are rounded (float data written through resampling code).
-class LabelDecoder {
-public:
-    LabelDecoder(ScalarType type,
-                 bool swap,
-                 double slope,
-                 double inter,
-                 SliceStack& stack,
-                 std::string where,
-                 const ProgressFn& progress)
-        : type_(type),
-          swap_(swap),
-          is_scaled_(slope != 0.0 && !(slope == 1.0 && inter == 0.0)),
-          slope_(slope),
-          inter_(inter),
-          stack_(stack),
-          where_(std::move(where)),
-          progress_(progress) {}
-
-    /// Converts `count` stored values starting at `bytes` (count * scalar_bytes(type) bytes).
-    void decode(const unsigned char* bytes, std::size_t count) {
-        switch (type_) {
-            case ScalarType::Int8:
-                return decode_as<std::int8_t>(bytes, count);
-            case ScalarType::UInt8:
-                return decode_as<std::uint8_t>(bytes, count);
-            case ScalarType::Int16:
-                return decode_as<std::int16_t>(bytes, count);
-            case ScalarType::UInt16:
-                return decode_as<std::uint16_t>(bytes, count);
-            case ScalarType::Int32:
-                return decode_as<std::int32_t>(bytes, count);
-            case ScalarType::UInt32:
-                return decode_as<std::uint32_t>(bytes, count);
-            case ScalarType::Int64:
-                return decode_as<std::int64_t>(bytes, count);
-            case ScalarType::UInt64:
-                return decode_as<std::uint64_t>(bytes, count);
-            case ScalarType::Float32:
-                return decode_as<float>(bytes, count);
-            case ScalarType::Float64:
-                return decode_as<double>(bytes, count);
-        }
-    }
-
-private:
-    template <typename T>
-    void decode_as(const unsigned char* bytes, std::size_t count) {
-        std::uint16_t* out = stack_.labels.data();
-        for (std::size_t n = 0; n < count; ++n, bytes += sizeof(T)) {
-            const T stored = load<T>(bytes, swap_);
-            if constexpr (std::is_integral_v<T>) {
-                if (!is_scaled_) {
-                    if (!std::in_range<std::uint16_t>(stored)) {
-                        reject(std::to_string(stored), "");
-                    }
-                    out[next_++] = static_cast<std::uint16_t>(stored);
-                    continue;
-                }
-            }
-            const double value = is_scaled_ ? static_cast<double>(stored) * slope_ + inter_
-                                            : static_cast<double>(stored);
-            const double rounded = std::nearbyint(value);
-            if (!std::isfinite(value) || std::abs(value - rounded) > 1e-4 || rounded < 0.0 ||
-                rounded > 65535.0) {
-                reject(format_number(value),
-                       is_scaled_ ? " (stored " + format_number(static_cast<double>(stored)) +
-                                        " * scl_slope " + format_number(slope_) + " + scl_inter " +
-                                        format_number(inter_) + ")"
-                                  : "");
-            }
-            out[next_++] = static_cast<std::uint16_t>(rounded);
-        }
-        report_progress();
-    }
-
-    [[noreturn]] void reject(const std::string& value, const std::string& detail) const {
-        const std::size_t slice = stack_.slice_size();
-        const std::size_t k = next_ / slice;
-        const std::size_t j = (next_ % slice) / stack_.width;
-        const std::size_t i = next_ % stack_.width;
-        throw Error(ErrorCode::InvalidInput, where_ + ": voxel (" + std::to_string(i) + "," +
-                                                 std::to_string(j) + "," + std::to_string(k) +
-                                                 ") has value " + value + detail +
-                                                 ", expected an integer label 0..65535");
-    }
-
-    void report_progress() {
-        if (!progress_) {
-            return;
-        }
-        const std::size_t done = next_ / stack_.slice_size();
-        while (slices_reported_ < done) {
-            progress_("slices", ++slices_reported_, stack_.depth);
-        }
-    }
-
-    ScalarType type_;
-    bool swap_;
-    bool is_scaled_;
-    double slope_;
-    double inter_;
-    SliceStack& stack_;
-    std::string where_;
-    const ProgressFn& progress_;
-    std::size_t next_ = 0;
-    std::size_t slices_reported_ = 0;
-};
 
 // ---------------------------------------------------------------------------------------------
 // gzip-or-plain input through zlib's gz* interface (it reads uncompressed files transparently)
@@ -725,15 +568,6 @@ std::string xml_text(std::string_view text) {
     return out;
 }
 
-std::optional<double> parse_real(std::string_view text) {
-    double value = 0;
-    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size()) {
-        return std::nullopt;
-    }
-    return value;
-}
-
 std::vector<LabelInfo> caret_labels(std::string_view xml,
                                     const std::string& where,
                                     Report& report) {
@@ -756,7 +590,7 @@ std::vector<LabelInfo> caret_labels(std::string_view xml,
         const std::string name = xml_text(xml.substr(tag_end + 1, close - tag_end - 1));
         pos = close + 8;
         const auto key_text = xml_attribute(tag, "Key");
-        const auto key = key_text ? parse_real(*key_text) : std::nullopt;
+        const auto key = key_text ? parse_number<double>(*key_text) : std::nullopt;
         if (!key || *key != std::floor(*key) || *key < 0 || *key > 65535) {
             report.warn("input", where,
                         "ignored a label of the NIfTI label-table extension with key \"" +
@@ -775,7 +609,7 @@ std::vector<LabelInfo> caret_labels(std::string_view xml,
             bool is_valid = true;
             ColorSrgb8 parsed{};
             for (int c = 0; c < 3; ++c) {
-                const auto component = parse_real(*rgb[c]);
+                const auto component = parse_number<double>(*rgb[c]);
                 is_valid = is_valid && component && *component >= 0.0 && *component <= 1.0;
                 if (is_valid) {
                     parsed[c] = static_cast<std::uint8_t>(std::lround(255.0 * *component));
@@ -1115,23 +949,12 @@ SliceStack read_nifti(const std::filesystem::path& file,
     stack.source_frame = frame;
     stack.label_table = std::move(label_table);
 
-    const std::size_t value_bytes = scalar_bytes(type);
-    const std::uint64_t expected = stack.labels.size() * value_bytes;
-    LabelDecoder decoder(type, h.swap, h.scl_slope, h.scl_inter, stack, where, options.progress);
-    std::vector<unsigned char> chunk(std::min<std::uint64_t>(expected, kChunkBytes));
-    std::uint64_t found = 0;
-    while (found < expected) {
-        const std::size_t ask = std::min<std::uint64_t>(expected - found, chunk.size());
-        const std::size_t got = in.read(chunk.data(), ask);
-        found += got;
-        if (got < ask) {
-            throw Error(ErrorCode::InvalidInput,
-                        where + ": truncated: expected " + std::to_string(expected) +
-                            " bytes of voxel data after vox_offset " + std::to_string(vox_offset) +
-                            ", found " + std::to_string(found));
-        }
-        decoder.decode(chunk.data(), got / value_bytes);
-    }
+    // note: scl_slope 0 means the values are not scaled
+    const ValueScaling scaling =
+        h.scl_slope != 0.0 ? ValueScaling{h.scl_slope, h.scl_inter} : ValueScaling{};
+    LabelDecoder decoder(type, h.swap, stack, where, options.progress, scaling);
+    decoder.decode_all([&](unsigned char* out, std::size_t size) { return in.read(out, size); },
+                       " after vox_offset " + std::to_string(vox_offset));
     in.check_trailer();
     return stack;
 }

@@ -10,7 +10,6 @@
 #include <bit>
 #include <cctype>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -26,128 +25,39 @@
 
 #include "core/error.h"
 #include "input/detail/readers.h"
+#include "input/detail/text.h"
+#include "input/detail/voxel_decode.h"
 
 namespace strata::detail {
 
 namespace {
 
-// note: raw voxel bytes are streamed through a buffer of this size (a multiple of every voxel
-// size), so memory use is bounded by the label images whatever the stored type
-constexpr std::size_t kChunkBytes = std::size_t(1) << 20;
 // NRRD headers are a few KiB; this only stops a binary file from being read as one long header.
 constexpr std::size_t kMaxHeaderBytes = std::size_t(1) << 20;
 
 // ---------------------------------------------------------------------------------------------
 // Small helpers
 
-std::string format_number(double value) {
-    char buffer[64];
-    const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-    return std::string(buffer, result.ptr);
-}
-
-std::string_view trim(std::string_view text) {
-    const auto is_space = [](char ch) {
-        return ch == ' ' || ch == '\t' || ch == '\r' || ch == '\n' || ch == '\f' || ch == '\v';
-    };
-    while (!text.empty() && is_space(text.front())) {
+/// A number as header fields write it: surrounding white space and a leading '+' allowed.
+template <typename T>
+std::optional<T> parse_field_number(std::string_view text) {
+    text = trim(text);
+    if (!text.empty() && text.front() == '+') {
         text.remove_prefix(1);
     }
-    while (!text.empty() && is_space(text.back())) {
-        text.remove_suffix(1);
-    }
-    return text;
-}
-
-std::vector<std::string_view> split_words(std::string_view text) {
-    std::vector<std::string_view> words;
-    std::size_t n = 0;
-    while (n < text.size()) {
-        while (n < text.size() && (text[n] == ' ' || text[n] == '\t')) {
-            ++n;
-        }
-        const std::size_t start = n;
-        while (n < text.size() && text[n] != ' ' && text[n] != '\t') {
-            ++n;
-        }
-        if (n > start) {
-            words.push_back(text.substr(start, n - start));
-        }
-    }
-    return words;
+    return parse_number<T>(text);
 }
 
 std::optional<double> parse_double(std::string_view text) {
-    text = trim(text);
-    if (!text.empty() && text.front() == '+') {
-        text.remove_prefix(1);
-    }
-    double value = 0;
-    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (result.ec != std::errc() || result.ptr != text.data() + text.size() || text.empty()) {
-        return std::nullopt;
-    }
-    return value;
+    return parse_field_number<double>(text);
 }
 
 std::optional<std::int64_t> parse_int(std::string_view text) {
-    text = trim(text);
-    if (!text.empty() && text.front() == '+') {
-        text.remove_prefix(1);
-    }
-    std::int64_t value = 0;
-    const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (result.ec != std::errc() || result.ptr != text.data() + text.size() || text.empty()) {
-        return std::nullopt;
-    }
-    return value;
-}
-
-template <typename T>
-T load(const unsigned char* bytes, bool swap) {
-    std::array<unsigned char, sizeof(T)> raw;
-    std::memcpy(raw.data(), bytes, sizeof(T));
-    if (swap) {
-        std::reverse(raw.begin(), raw.end());
-    }
-    return std::bit_cast<T>(raw);
+    return parse_field_number<std::int64_t>(text);
 }
 
 // ---------------------------------------------------------------------------------------------
-// Stored voxel types and their conversion to labels
-
-enum class ScalarType {
-    Int8,
-    UInt8,
-    Int16,
-    UInt16,
-    Int32,
-    UInt32,
-    Int64,
-    UInt64,
-    Float32,
-    Float64
-};
-
-std::size_t scalar_bytes(ScalarType type) {
-    switch (type) {
-        case ScalarType::Int8:
-        case ScalarType::UInt8:
-            return 1;
-        case ScalarType::Int16:
-        case ScalarType::UInt16:
-            return 2;
-        case ScalarType::Int32:
-        case ScalarType::UInt32:
-        case ScalarType::Float32:
-            return 4;
-        case ScalarType::Int64:
-        case ScalarType::UInt64:
-        case ScalarType::Float64:
-            return 8;
-    }
-    return 1;
-}
+// Stored voxel types
 
 /// NRRD type spellings (format.html section 5, "type").
 std::optional<ScalarType> parse_type(std::string_view text) {
@@ -204,106 +114,6 @@ std::optional<ScalarType> parse_type(std::string_view text) {
     }
     return std::nullopt;
 }
-
-/// Converts stored voxel values, in raster order, into the labels of a stack; rejects the first
-/// value that is not an integer label 0..65535 naming its voxel (i,j,k). Real values within 1e-4
-/// of an integer are rounded (float data written through resampling code).
-class LabelDecoder {
-public:
-    LabelDecoder(ScalarType type,
-                 bool swap,
-                 SliceStack& stack,
-                 std::string where,
-                 const ProgressFn& progress)
-        : type_(type), swap_(swap), stack_(stack), where_(std::move(where)), progress_(progress) {}
-
-    /// Converts `count` stored values starting at `bytes` (count * scalar_bytes(type) bytes).
-    void decode(const unsigned char* bytes, std::size_t count) {
-        switch (type_) {
-            case ScalarType::Int8:
-                return decode_as<std::int8_t>(bytes, count);
-            case ScalarType::UInt8:
-                return decode_as<std::uint8_t>(bytes, count);
-            case ScalarType::Int16:
-                return decode_as<std::int16_t>(bytes, count);
-            case ScalarType::UInt16:
-                return decode_as<std::uint16_t>(bytes, count);
-            case ScalarType::Int32:
-                return decode_as<std::int32_t>(bytes, count);
-            case ScalarType::UInt32:
-                return decode_as<std::uint32_t>(bytes, count);
-            case ScalarType::Int64:
-                return decode_as<std::int64_t>(bytes, count);
-            case ScalarType::UInt64:
-                return decode_as<std::uint64_t>(bytes, count);
-            case ScalarType::Float32:
-                return decode_as<float>(bytes, count);
-            case ScalarType::Float64:
-                return decode_as<double>(bytes, count);
-        }
-    }
-
-    /// Converts one value given as a number (ascii encoding).
-    void decode_value(double value) {
-        store_real(value);
-        report_progress();
-    }
-
-private:
-    template <typename T>
-    void decode_as(const unsigned char* bytes, std::size_t count) {
-        for (std::size_t n = 0; n < count; ++n, bytes += sizeof(T)) {
-            const T stored = load<T>(bytes, swap_);
-            if constexpr (std::is_integral_v<T>) {
-                if (!std::in_range<std::uint16_t>(stored)) {
-                    reject(std::to_string(stored));
-                }
-                stack_.labels[next_++] = static_cast<std::uint16_t>(stored);
-            } else {
-                store_real(static_cast<double>(stored));
-            }
-        }
-        report_progress();
-    }
-
-    void store_real(double value) {
-        const double rounded = std::nearbyint(value);
-        if (!std::isfinite(value) || std::abs(value - rounded) > 1e-4 || rounded < 0.0 ||
-            rounded > 65535.0) {
-            reject(format_number(value));
-        }
-        stack_.labels[next_++] = static_cast<std::uint16_t>(rounded);
-    }
-
-    [[noreturn]] void reject(const std::string& value) const {
-        const std::size_t slice = stack_.slice_size();
-        const std::size_t k = next_ / slice;
-        const std::size_t j = (next_ % slice) / stack_.width;
-        const std::size_t i = next_ % stack_.width;
-        throw Error(ErrorCode::InvalidInput, where_ + ": voxel (" + std::to_string(i) + "," +
-                                                 std::to_string(j) + "," + std::to_string(k) +
-                                                 ") has value " + value +
-                                                 ", expected an integer label 0..65535");
-    }
-
-    void report_progress() {
-        if (!progress_) {
-            return;
-        }
-        const std::size_t done = next_ / stack_.slice_size();
-        while (slices_reported_ < done) {
-            progress_("slices", ++slices_reported_, stack_.depth);
-        }
-    }
-
-    ScalarType type_;
-    bool swap_;
-    SliceStack& stack_;
-    std::string where_;
-    const ProgressFn& progress_;
-    std::size_t next_ = 0;
-    std::size_t slices_reported_ = 0;
-};
 
 // ---------------------------------------------------------------------------------------------
 // Header
@@ -656,28 +466,6 @@ void skip_lines(std::istream& in, std::int64_t count, const std::string& where) 
                 break;
             }
         }
-    }
-}
-
-/// Streams `expected` voxel bytes from `read(buffer, size)` into the decoder.
-template <typename ReadFn>
-void decode_stream(ReadFn&& read,
-                   std::uint64_t expected,
-                   std::size_t value_bytes,
-                   LabelDecoder& decoder,
-                   const std::string& where) {
-    std::vector<unsigned char> chunk(std::min<std::uint64_t>(expected, kChunkBytes));
-    std::uint64_t found = 0;
-    while (found < expected) {
-        const std::size_t ask = std::min<std::uint64_t>(expected - found, chunk.size());
-        const std::size_t got = read(chunk.data(), ask);
-        found += got;
-        if (got < ask) {
-            throw Error(ErrorCode::InvalidInput,
-                        where + ": truncated: expected " + std::to_string(expected) +
-                            " bytes of voxel data, found " + std::to_string(found));
-        }
-        decoder.decode(chunk.data(), got / value_bytes);
     }
 }
 
@@ -1203,9 +991,8 @@ SliceStack read_nrrd(const std::filesystem::path& file,
                 }
             }
         }
-        decode_stream(
-            [&](unsigned char* out, std::size_t size) { return inflater.read(out, size); },
-            expected, value_bytes, decoder, data_where);
+        decoder.decode_all(
+            [&](unsigned char* out, std::size_t size) { return inflater.read(out, size); });
         inflater.check_trailer();
         return stack;
     }
@@ -1232,9 +1019,9 @@ SliceStack read_nrrd(const std::filesystem::path& file,
     if (encoding == Encoding::Ascii) {
         decode_ascii(*data, count, decoder, data_where);
     } else {
-        decode_stream([&](unsigned char* out,
-                          std::size_t size) { return read_raw(*data, out, size, data_where); },
-                      expected, value_bytes, decoder, data_where);
+        decoder.decode_all([&](unsigned char* out, std::size_t size) {
+            return read_raw(*data, out, size, data_where);
+        });
     }
     return stack;
 }

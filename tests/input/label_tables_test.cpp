@@ -1,7 +1,6 @@
 // Colour tables: 3D Slicer, ITK-SNAP and JSON, detected by content.
 
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -9,37 +8,17 @@
 
 #include "core/error.h"
 #include "input/detail/readers.h"
+#include "support/input_files.h"
 #include "support/test_paths.h"
 
 namespace strata {
 namespace {
 
 namespace fs = std::filesystem;
+using test::throws_error;
 
 fs::path table_file(const std::string& name, const std::string& text) {
-    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-    const fs::path dir = test::fresh_temp_dir(std::string("color_table_") + test->name());
-    std::ofstream out(dir / name, std::ios::binary);
-    out << text;
-    return dir / name;
-}
-
-template <typename F>
-::testing::AssertionResult throws_error(F&& f, ErrorCode code, const std::string& fragment) {
-    try {
-        f();
-    } catch (const Error& e) {
-        if (e.code() != code) {
-            return ::testing::AssertionFailure() << "code " << to_string(e.code()) << " ("
-                                                 << e.what() << "), expected " << to_string(code);
-        }
-        if (std::string(e.what()).find(fragment) == std::string::npos) {
-            return ::testing::AssertionFailure()
-                   << "message \"" << e.what() << "\" lacks \"" << fragment << "\"";
-        }
-        return ::testing::AssertionSuccess() << e.what();
-    }
-    return ::testing::AssertionFailure() << "no strata::Error thrown";
+    return test::write_file(test::current_test_dir("color_table_") / name, text);
 }
 
 TEST(ColorTable, ReadsSlicerTable) {

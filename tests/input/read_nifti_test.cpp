@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -13,40 +12,28 @@
 #include <set>
 #include <string>
 #include <vector>
-#include <zlib.h>
 
 #include <gtest/gtest.h>
 
 #include "core/error.h"
 #include "input/detail/readers.h"
 #include "input/write_nifti.h"
+#include "support/input_files.h"
 #include "support/test_paths.h"
 
 namespace strata {
 namespace {
 
 namespace fs = std::filesystem;
+using test::encode;
+using test::gzip;
+using test::put;
+using test::ramp;
+using test::throws_error;
+using test::write_file;
 
 // ---------------------------------------------------------------------------------------------
 // Fixtures: NIfTI files assembled byte by byte
-
-template <typename T>
-void put(std::string& bytes, std::size_t offset, T value, bool big_endian) {
-    auto raw = std::bit_cast<std::array<char, sizeof(T)>>(value);
-    if (big_endian != (std::endian::native == std::endian::big)) {
-        std::reverse(raw.begin(), raw.end());
-    }
-    std::memcpy(bytes.data() + offset, raw.data(), sizeof(T));
-}
-
-template <typename T>
-std::string encode(const std::vector<T>& values, bool big_endian = false) {
-    std::string bytes(values.size() * sizeof(T), '\0');
-    for (std::size_t n = 0; n < values.size(); ++n) {
-        put(bytes, n * sizeof(T), values[n], big_endian);
-    }
-    return bytes;
-}
 
 /// Header fields of a test file; defaults: 4x3x2 uint8, 1 mm, no qform/sform.
 struct NiftiFields {
@@ -128,38 +115,9 @@ std::string nifti_header(const NiftiFields& f) {
     return h;
 }
 
-std::string gzip(const std::string& bytes) {
-    z_stream s{};
-    EXPECT_EQ(deflateInit2(&s, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
-    std::string out(deflateBound(&s, static_cast<uLong>(bytes.size())) + 64, '\0');
-    s.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
-    s.avail_in = static_cast<uInt>(bytes.size());
-    s.next_out = reinterpret_cast<Bytef*>(out.data());
-    s.avail_out = static_cast<uInt>(out.size());
-    EXPECT_EQ(deflate(&s, Z_FINISH), Z_STREAM_END);
-    out.resize(s.total_out);
-    deflateEnd(&s);
-    return out;
-}
-
-fs::path write_file(const fs::path& path, const std::string& bytes) {
-    std::ofstream out(path, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    return path;
-}
-
 std::string read_bytes(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// 0, 1, 2, ... (mod 7) for the default 4x3x2 grid: distinct per voxel row.
-std::vector<std::uint8_t> ramp(std::size_t count) {
-    std::vector<std::uint8_t> values(count);
-    for (std::size_t n = 0; n < count; ++n) {
-        values[n] = static_cast<std::uint8_t>(n % 7);
-    }
-    return values;
 }
 
 SliceStack read(const fs::path& path, ReadOptions options = {}) {
@@ -169,36 +127,14 @@ SliceStack read(const fs::path& path, ReadOptions options = {}) {
 
 /// The file `name` in a fresh folder for this test, holding header + data.
 fs::path nifti_file(const std::string& name, const NiftiFields& fields, const std::string& data) {
-    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-    const fs::path dir = test::fresh_temp_dir(std::string("read_nifti_") + test->test_suite_name() +
-                                              "_" + test->name());
+    const fs::path dir = test::current_test_dir("read_nifti_");
     const std::string bytes = nifti_header(fields) + data;
     const bool is_gz = name.size() > 3 && name.substr(name.size() - 3) == ".gz";
     return write_file(dir / name, is_gz ? gzip(bytes) : bytes);
 }
 
 fs::path temp_dir() {
-    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-    return test::fresh_temp_dir(std::string("nifti_") + test->test_suite_name() + "_" +
-                                test->name());
-}
-
-template <typename F>
-::testing::AssertionResult throws_error(F&& f, ErrorCode code, const std::string& fragment) {
-    try {
-        f();
-    } catch (const Error& e) {
-        if (e.code() != code) {
-            return ::testing::AssertionFailure() << "code " << to_string(e.code()) << " ("
-                                                 << e.what() << "), expected " << to_string(code);
-        }
-        if (std::string(e.what()).find(fragment) == std::string::npos) {
-            return ::testing::AssertionFailure()
-                   << "message \"" << e.what() << "\" lacks \"" << fragment << "\"";
-        }
-        return ::testing::AssertionSuccess() << e.what();
-    }
-    return ::testing::AssertionFailure() << "no strata::Error thrown";
+    return test::current_test_dir("nifti_");
 }
 
 void expect_affine_near(const Affine3& actual, const Affine3& expected, double tolerance) {

@@ -1,75 +1,32 @@
 // NRRD reading: headers written here as text, data raw, gzip or ascii; and the real files.
 
-#include <algorithm>
 #include <array>
-#include <bit>
-#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <set>
 #include <string>
 #include <vector>
-#include <zlib.h>
 
 #include <gtest/gtest.h>
 
 #include "core/error.h"
 #include "input/detail/readers.h"
+#include "support/input_files.h"
 #include "support/test_paths.h"
 
 namespace strata {
 namespace {
 
 namespace fs = std::filesystem;
-
-template <typename T>
-std::string encode(const std::vector<T>& values, bool big_endian = false) {
-    std::string bytes(values.size() * sizeof(T), '\0');
-    for (std::size_t n = 0; n < values.size(); ++n) {
-        auto raw = std::bit_cast<std::array<char, sizeof(T)>>(values[n]);
-        if (big_endian != (std::endian::native == std::endian::big)) {
-            std::reverse(raw.begin(), raw.end());
-        }
-        std::memcpy(bytes.data() + n * sizeof(T), raw.data(), sizeof(T));
-    }
-    return bytes;
-}
-
-std::string gzip(const std::string& bytes) {
-    z_stream s{};
-    EXPECT_EQ(deflateInit2(&s, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
-    std::string out(deflateBound(&s, static_cast<uLong>(bytes.size())) + 64, '\0');
-    s.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data()));
-    s.avail_in = static_cast<uInt>(bytes.size());
-    s.next_out = reinterpret_cast<Bytef*>(out.data());
-    s.avail_out = static_cast<uInt>(out.size());
-    EXPECT_EQ(deflate(&s, Z_FINISH), Z_STREAM_END);
-    out.resize(s.total_out);
-    deflateEnd(&s);
-    return out;
-}
+using test::count_labelled_slices;
+using test::encode;
+using test::gzip;
+using test::ramp;
+using test::throws_error;
+using test::write_file;
 
 fs::path temp_dir() {
-    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-    return test::fresh_temp_dir(std::string("nrrd_") + test->test_suite_name() + "_" +
-                                test->name());
-}
-
-fs::path write_file(const fs::path& path, const std::string& bytes) {
-    std::ofstream out(path, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    return path;
-}
-
-/// 4x3x2 values 0..6 repeating.
-std::vector<std::uint8_t> ramp(std::size_t count) {
-    std::vector<std::uint8_t> values(count);
-    for (std::size_t n = 0; n < count; ++n) {
-        values[n] = static_cast<std::uint8_t>(n % 7);
-    }
-    return values;
+    return test::current_test_dir("nrrd_");
 }
 
 /// A header for a 4x3x2 volume; `fields` are extra lines (each ending in "\n").
@@ -88,24 +45,6 @@ const std::string kLps =
 SliceStack read(const fs::path& path, ReadOptions options = {}) {
     Report report;
     return detail::read_nrrd(path, options, report);
-}
-
-template <typename F>
-::testing::AssertionResult throws_error(F&& f, ErrorCode code, const std::string& fragment) {
-    try {
-        f();
-    } catch (const Error& e) {
-        if (e.code() != code) {
-            return ::testing::AssertionFailure() << "code " << to_string(e.code()) << " ("
-                                                 << e.what() << "), expected " << to_string(code);
-        }
-        if (std::string(e.what()).find(fragment) == std::string::npos) {
-            return ::testing::AssertionFailure()
-                   << "message \"" << e.what() << "\" lacks \"" << fragment << "\"";
-        }
-        return ::testing::AssertionSuccess() << e.what();
-    }
-    return ::testing::AssertionFailure() << "no strata::Error thrown";
 }
 
 void expect_affine_near(const Affine3& actual,
@@ -639,14 +578,7 @@ TEST(ReadNrrd, PyradiomicsLungLabel) {
                        1e-6);
     const std::vector<std::uint16_t> present = present_labels(stack);
     ASSERT_FALSE(present.empty());
-    std::set<std::uint32_t> slices;
-    for (std::uint32_t k = 0; k < stack.depth; ++k) {
-        const auto s = stack.slice(k);
-        if (std::any_of(s.begin(), s.end(), [](std::uint16_t v) { return v != 0; })) {
-            slices.insert(k);
-        }
-    }
-    EXPECT_EQ(slices.size(), 11u);  // README: 11 slices carry the tumour
+    EXPECT_EQ(count_labelled_slices(stack), 11u);  // README: 11 slices carry the tumour
 }
 
 TEST(ReadNrrd, PyradiomicsBrainLabel) {
@@ -659,14 +591,7 @@ TEST(ReadNrrd, PyradiomicsBrainLabel) {
     EXPECT_NEAR(stack.index_to_world.linear[1][1], -0.78125, 1e-9);
     EXPECT_NEAR(stack.index_to_world.linear[2][2], 6.5, 1e-9);
     EXPECT_NEAR(stack.index_to_world.translation.y, 99.609375, 1e-9);
-    std::set<std::uint32_t> slices;
-    for (std::uint32_t k = 0; k < stack.depth; ++k) {
-        const auto s = stack.slice(k);
-        if (std::any_of(s.begin(), s.end(), [](std::uint16_t v) { return v != 0; })) {
-            slices.insert(k);
-        }
-    }
-    EXPECT_EQ(slices.size(), 7u);  // README: 7 slices carry the tumour
+    EXPECT_EQ(count_labelled_slices(stack), 7u);  // README: 7 slices carry the tumour
 }
 
 }  // namespace

@@ -2,12 +2,12 @@
 
 #include <cmath>
 #include <fstream>
-#include <set>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "input/read_slice_stack.h"
+#include "support/input_files.h"
 #include "support/test_paths.h"
 
 namespace strata {
@@ -94,16 +94,7 @@ TEST(SharedData, LungTumourNrrd) {
     expect_spacing(s, {0.627, 0.627, 5}, 2e-3);
     EXPECT_EQ(s.source_frame, "LPS");
     ASSERT_GE(s.label_table.size(), 1u);
-    std::set<std::uint32_t> slices;
-    for (std::uint32_t k = 0; k < s.depth; ++k) {
-        for (std::uint16_t v : s.slice(k)) {
-            if (v != 0) {
-                slices.insert(k);
-                break;
-            }
-        }
-    }
-    EXPECT_EQ(slices.size(), 11u);  // data README: 11 slices carry the tumour
+    EXPECT_EQ(test::count_labelled_slices(s), 11u);  // data README: 11 slices carry the tumour
 }
 
 TEST(SharedData, BrainTumourNrrd) {
@@ -113,16 +104,7 @@ TEST(SharedData, BrainTumourNrrd) {
     EXPECT_EQ(s.height, 256u);
     EXPECT_EQ(s.depth, 25u);
     expect_spacing(s, {0.781, 0.781, 6.5}, 2e-3);
-    std::set<std::uint32_t> slices;
-    for (std::uint32_t k = 0; k < s.depth; ++k) {
-        for (std::uint16_t v : s.slice(k)) {
-            if (v != 0) {
-                slices.insert(k);
-                break;
-            }
-        }
-    }
-    EXPECT_EQ(slices.size(), 7u);  // data README: 7 slices carry the tumour
+    EXPECT_EQ(test::count_labelled_slices(s), 7u);  // data README: 7 slices carry the tumour
 }
 
 }  // namespace

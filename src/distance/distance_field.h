@@ -1,0 +1,119 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "contours/slice_contours.h"
+#include "core/progress.h"
+#include "input/slice_stack.h"
+
+namespace strata {
+
+/// A position on an original contour of one slice: point `point` of contour `contour` (index
+/// into SliceContourSet::contours), or the midpoint of the segment from that point to the next
+/// when `is_midpoint`.
+struct ContourSite {
+    std::uint32_t contour = 0;
+    std::uint32_t point = 0;
+    bool is_midpoint = false;
+
+    friend bool operator==(const ContourSite&, const ContourSite&) = default;
+};
+
+/// Signed Euclidean distance of one label on one slice, with its feature transform, sampled on
+/// the half-pixel grid: node (i, j) lies at (origin_x + i / 2, origin_y + j / 2) px, so pixel
+/// corners, edge midpoints and pixel centres are all nodes (origin is a pixel corner).
+///
+/// The sites are every node on the label's original contours: the contour points and the
+/// midpoints of their unit segments (all contour points lie on this grid; the sqrt(1/2) chamfers
+/// at cut saddles and the 0.5 half-edges have no interior node). `distance_px` is the exact
+/// Euclidean distance to the nearest site (rounded once to float), negative inside the label,
+/// zero exactly on the sites; `closest` names that site. Ties: among the sites at exactly the
+/// smallest distance, `closest` is the one with the smallest index in `sites`.
+/// Inside/outside follows the mask, pixels outside the image being background: a pixel centre
+/// takes its pixel's value, a non-site edge midpoint or corner the common value of the pixels
+/// around it, except a saddle corner (diagonal pattern), which is cut off by the contour and is
+/// inside. This is the even-odd inside of the label's contour polygons.
+/// The field covers a window of the slice (the label's extent on this and the neighbouring
+/// slices plus a margin); `outside_window_px` is a lower bound of |distance| for any point
+/// outside the window: every site lies in the label's pixel box B on this slice, so a point
+/// beyond a window side is farther than that side's gap to B from every site. The smallest of the
+/// four gaps is stored; it is at least the margin, and no constant bound is larger (B's side
+/// carries a site, right across the gap).
+struct DistanceField {
+    std::uint16_t label = 0;
+    std::uint32_t slice = 0;
+    double origin_x = 0.0;               ///< px, a pixel corner (integer)
+    double origin_y = 0.0;               ///< px, a pixel corner (integer)
+    std::uint32_t nx = 0;                ///< nodes per row
+    std::uint32_t ny = 0;                ///< node rows
+    std::vector<float> distance_px;      ///< nx * ny signed distances, row-major
+    std::vector<std::uint32_t> closest;  ///< nx * ny indices into `sites`
+    std::vector<ContourSite> sites;      ///< the sites, sorted by (contour, point, midpoint)
+    double outside_window_px = 0.0;
+
+    static constexpr double kCellPx = 0.5;  ///< node spacing, px
+
+    Vec2 node_position(std::uint32_t i, std::uint32_t j) const {
+        return {origin_x + kCellPx * i, origin_y + kCellPx * j};
+    }
+    std::size_t node_index(std::uint32_t i, std::uint32_t j) const {
+        return std::size_t(j) * nx + i;
+    }
+    float at(std::uint32_t i, std::uint32_t j) const { return distance_px[node_index(i, j)]; }
+};
+
+/// Position (px) of a site on the contours it was taken from (`set`: the field's slice).
+inline Vec2 site_position(const SliceContourSet& set, const ContourSite& site) {
+    const std::vector<Vec2>& points = set.contours[site.contour].points;
+    const Vec2 a = points[site.point];
+    if (!site.is_midpoint) {
+        return a;
+    }
+    const Vec2 b = points[(site.point + 1) % points.size()];
+    return {0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+}
+
+/// The fields of one slice: one per label present on it, sorted by label.
+struct SliceDistanceFields {
+    std::vector<DistanceField> fields;
+};
+
+/// Options of the distance stage.
+struct DistanceOptions {
+    double margin_px = 4.0;  ///< extra border around the labels' extent, px (rounded up to whole
+                             ///< pixels); also the least outside_window_px
+    unsigned threads = 0;    ///< worker threads, 0 = all cores; output identical for any count
+    ProgressFn progress;     ///< called per slice (may be empty)
+};
+
+/// Computes the distance field of `label` on slice `k` (see DistanceField) over the window
+/// covering the label's pixels on slices k-1, k, k+1 (those that exist) plus `margin_px` rounded
+/// up to whole pixels; the window may extend beyond the image (pixels there are background).
+/// Exact and linear in the number of nodes: separable Felzenszwalb-Huttenlocher lower envelopes
+/// in doubled integer coordinates with argmin tracking. `set` is slice k's traced contour set
+/// (trace_slice_contours or extract_contours; only the original points are used).
+/// Example: a disc of radius 30 px gives about -30 at its centre, 0 on its contour.
+/// \throw Error{InvalidInput} when k is out of range, the label is absent on slice k (no pixel
+///        or no contour), `margin_px` is negative, not finite or makes the window too large, or
+///        the contours do not match the label image (a contour point off the half-pixel grid, a
+///        step other than 1, 0.5 or sqrt(1/2) px, a node on the contour with equal pixels
+///        around it or a boundary node missing from the contours).
+DistanceField compute_distance_field(const SliceStack& stack,
+                                     const SliceContourSet& set,
+                                     std::uint32_t k,
+                                     std::uint16_t label,
+                                     const DistanceOptions& options);
+
+/// The distance stage: the field of every label of SliceContourSet::labels on every slice (one
+/// entry per slice, fields sorted by label; a slice without labels gets none), in parallel over
+/// slices; identical output for any thread count. `progress` is called once per slice
+/// ("distance slices").
+/// \throw Error{InvalidInput} when `contours` does not belong to `stack` (size or slice count)
+///        or as compute_distance_field.
+std::vector<SliceDistanceFields> compute_distance_fields(const SliceStack& stack,
+                                                         const SliceContours& contours,
+                                                         const DistanceOptions& options);
+
+}  // namespace strata
