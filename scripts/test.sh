@@ -12,6 +12,8 @@ if [ "${1:-}" = "--sanitize" ]; then
     export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
     export LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp:print_suppressions=0"
+    # the Release run covers the full property iterations; keep the sanitizer run short
+    export STRATA_PROPERTY_ITERATIONS="${STRATA_PROPERTY_ITERATIONS:-200}"
 else
     dir=build
     flags=(-DCMAKE_BUILD_TYPE=Release)

@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "core/report.h"
 #include "debug/draw_contours.h"
+#include "debug/draw_medial.h"
 #include "input/read_slice_stack.h"
 #include "input/write_nifti.h"
 #include "input/write_slice_stack.h"
@@ -243,7 +244,7 @@ int run_build(const BuildOptions& options) {
 
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
-    reconstruct_options.contours.threads = options.threads;
+    reconstruct_options.threads = options.threads;
     reconstruct_options.progress = progress.callback();
     const Reconstruction result = reconstruct(stack, reconstruct_options, report);
     progress.finish();
@@ -254,6 +255,14 @@ int run_build(const BuildOptions& options) {
             char name[48];
             std::snprintf(name, sizeof(name), "contours_%04u.png", k);
             write_rgb_png(draw_slice_contours(stack, result.contours, k, view),
+                          options.debug_dir / name);
+        }
+        for (std::uint32_t k = 0; k + 1 < stack.depth; ++k) {
+            char name[48];
+            std::snprintf(name, sizeof(name), "medial_%04u_%04u.png", k, k + 1);
+            write_rgb_png(draw_medial_axis(result.contours.slices[k], result.contours.slices[k + 1],
+                                           result.fields[k], result.fields[k + 1],
+                                           result.medial_axes[k], view),
                           options.debug_dir / name);
         }
     }
@@ -281,6 +290,29 @@ int run_build(const BuildOptions& options) {
                          {"tolerance_px", result.contours.tolerance_px},
                          {"links", s.links},
                          {"hole_links", s.hole_links}};
+        std::uint64_t curves = 0;
+        std::uint64_t medial_points = 0;
+        std::uint64_t unmatched_runs = 0;
+        std::uint64_t unmatched_points = 0;
+        for (const MedialAxis& axis : result.medial_axes) {
+            for (const MedialCurve& curve : axis.curves) {
+                if (curve.label == label.value) {
+                    ++curves;
+                    medial_points += curve.points.size();
+                }
+            }
+            for (const UnmatchedRun& run : axis.unmatched) {
+                const auto& set = result.contours.slices[axis.lower_slice + (run.on_upper ? 1 : 0)];
+                if (set.contours[run.contour].label == label.value) {
+                    ++unmatched_runs;
+                    unmatched_points += run.count;
+                }
+            }
+        }
+        o["medial"] = {{"curves", curves},
+                       {"points", medial_points},
+                       {"unmatched_runs", unmatched_runs},
+                       {"unmatched_points", unmatched_points}};
         objects.push_back(o);
     }
     summary["objects"] = objects;

@@ -32,7 +32,6 @@ namespace strata {
 namespace {
 
 constexpr std::uint32_t kNoSite = std::numeric_limits<std::uint32_t>::max();
-constexpr float kNoColumnSite = std::numeric_limits<float>::infinity();
 /// Largest window: node rows and columns stay below 2^24 (column distances are exact in a float,
 /// squared doubled distances below 2^53) and the field below 2^30 nodes (8 GiB).
 constexpr std::int64_t kMaxNodesPerSide = std::int64_t(1) << 24;
@@ -206,8 +205,9 @@ void classify_row(const std::uint8_t* mask,
     side[2 * pixels] = corner(pixels);
 }
 
-/// First x >= 0 at which parabola (apex b, height fb, site sb) beats (apex a < b, fa, sa) under
-/// the order (value, site index): x (2 (b - a)) > num, or equal and sb < sa.
+/// First integer x at which parabola (apex b, height fb, site sb) beats (apex a < b, fa, sa)
+/// under the order (value, site index): x 2 (b - a) > num = (fb + b^2) - (fa + a^2), or equal
+/// and sb < sa. The difference of the parabolas falls linearly in x, so it keeps winning after.
 std::int64_t first_win(std::int64_t a,
                        std::int64_t fa,
                        std::uint32_t sa,
@@ -220,7 +220,7 @@ std::int64_t first_win(std::int64_t a,
     std::int64_t q = static_cast<std::int64_t>(static_cast<double>(num) / static_cast<double>(den));
     q -= q * den > num ? 1 : 0;
     q += (q + 1) * den <= num ? 1 : 0;
-    return (q * den == num && sb < sa) ? q : q + 1;
+    return q + 1 - static_cast<std::int64_t>((q * den == num) & (sb < sa));
 }
 
 /// The field of `label` on slice k over `window` (pixel box of the label on slices k-1..k+1)

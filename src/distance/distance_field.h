@@ -95,11 +95,14 @@ struct DistanceOptions {
 /// in doubled integer coordinates with argmin tracking. `set` is slice k's traced contour set
 /// (trace_slice_contours or extract_contours; only the original points are used).
 /// Example: a disc of radius 30 px gives about -30 at its centre, 0 on its contour.
+/// Memory: 8 bytes per node in the result; the calling thread keeps about 1 byte per node (and
+/// per window pixel) of scratch for its next call.
 /// \throw Error{InvalidInput} when k is out of range, the label is absent on slice k (no pixel
-///        or no contour), `margin_px` is negative, not finite or makes the window too large, or
-///        the contours do not match the label image (a contour point off the half-pixel grid, a
-///        step other than 1, 0.5 or sqrt(1/2) px, a node on the contour with equal pixels
-///        around it or a boundary node missing from the contours).
+///        or no contour), `margin_px` is negative, not finite or makes the window too large
+///        (over 2^30 nodes), or the contours do not match the label image (a contour point off
+///        the half-pixel grid or outside the window, a step other than 1, 0.5 or sqrt(1/2) px,
+///        two contours through one node, a node on a contour with equal pixels around it, or a
+///        boundary node on no contour).
 DistanceField compute_distance_field(const SliceStack& stack,
                                      const SliceContourSet& set,
                                      std::uint32_t k,

@@ -7,14 +7,19 @@
 #include "contours/slice_contours.h"
 #include "core/progress.h"
 #include "core/report.h"
+#include "distance/distance_field.h"
 #include "input/slice_stack.h"
+#include "medial/medial_axis.h"
 
 namespace strata {
 
 /// Options of the whole reconstruction, one struct per stage.
 struct ReconstructOptions {
     ContourOptions contours;
-    ProgressFn progress;  ///< stage progress (may be empty)
+    DistanceOptions distance;
+    MedialOptions medial;
+    unsigned threads = 0;  ///< worker threads of every stage, 0 = all cores
+    ProgressFn progress;   ///< stage progress (may be empty)
 };
 
 /// Wall time of one stage.
@@ -26,6 +31,8 @@ struct StageTiming {
 /// Everything the pipeline produced, stage by stage.
 struct Reconstruction {
     SliceContours contours;
+    std::vector<SliceDistanceFields> fields;  ///< one per slice
+    std::vector<MedialAxis> medial_axes;      ///< one per consecutive slice pair
     std::vector<StageTiming> timings;
 };
 
