@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "support/polygon_checks.h"
+#include "support/property.h"
 
 namespace strata {
 namespace {
@@ -137,8 +138,7 @@ TEST(ExtractContours, LabelsAreSeparateObjects) {
 /// Random masks: every contour simple, contours of a label pairwise disjoint, orientation by
 /// kind, and the even-odd rasterisation of the contours at pixel centres equals the mask.
 TEST(ExtractContoursProperty, RandomMasksGiveSimplePixelExactContours) {
-    const char* env = std::getenv("STRATA_PROPERTY_ITERATIONS");
-    const int iterations = env ? std::atoi(env) : 300;
+    const int iterations = test::property_iterations(300);
     for (int seed = 0; seed < iterations; ++seed) {
         SCOPED_TRACE("seed " + std::to_string(seed));
         std::mt19937 rng(static_cast<std::uint32_t>(seed));

@@ -19,19 +19,12 @@
 
 #include "contours/extract_contours.h"
 #include "core/error.h"
+#include "support/property.h"
 
 namespace strata {
 namespace {
 
-int property_iterations(int fallback) {
-    if (const char* env = std::getenv("STRATA_PROPERTY_ITERATIONS")) {
-        const int n = std::atoi(env);
-        if (n > 0) {
-            return n;
-        }
-    }
-    return fallback;
-}
+using test::property_iterations;
 
 SliceStack make_stack(std::uint32_t width, std::uint32_t height, std::uint32_t depth) {
     SliceStack s;

@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "input/slice_stack.h"
 #include "phantom/catalogue.h"
+#include "support/property.h"
 
 namespace strata::test {
 namespace {
@@ -61,15 +62,7 @@ void expect_topology(const Mask& mask, const ReferenceTopology& expected) {
         << "brute force";
 }
 
-int property_iterations(int fallback) {
-    if (const char* env = std::getenv("STRATA_PROPERTY_ITERATIONS")) {
-        const int n = std::atoi(env);
-        if (n > 0) {
-            return n;
-        }
-    }
-    return fallback;
-}
+using test::property_iterations;
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -16,19 +16,12 @@
 #include <gtest/gtest.h>
 
 #include "contours/simplify_contours.h"
+#include "support/property.h"
 
 namespace strata {
 namespace {
 
-int property_iterations(int fallback) {
-    if (const char* env = std::getenv("STRATA_PROPERTY_ITERATIONS")) {
-        const int n = std::atoi(env);
-        if (n > 0) {
-            return n;
-        }
-    }
-    return fallback;
-}
+using test::property_iterations;
 
 double uniform(std::mt19937& rng, double lo, double hi) {
     return std::uniform_real_distribution<double>(lo, hi)(rng);
