@@ -13,29 +13,13 @@
 #include "contours/simplify_contours.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/pixel_box.h"
 
 namespace strata {
 
 namespace {
 
-/// An axis-aligned window of image pixels [x0, x1) x [y0, y1).
-struct Window {
-    std::int64_t x0 = 0;
-    std::int64_t y0 = 0;
-    std::int64_t x1 = 0;
-    std::int64_t y1 = 0;
-
-    bool empty() const { return x1 <= x0 || y1 <= y0; }
-    Window united(const Window& o) const {
-        if (empty()) {
-            return o;
-        }
-        if (o.empty()) {
-            return *this;
-        }
-        return {std::min(x0, o.x0), std::min(y0, o.y0), std::max(x1, o.x1), std::max(y1, o.y1)};
-    }
-};
+using Window = PixelBox;
 
 /// Connected components of one label on one slice inside a window padded by one background
 /// pixel. Grid pixel (gx, gy) is image pixel (x0 - 1 + gx, y0 - 1 + gy).

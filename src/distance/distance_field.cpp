@@ -26,6 +26,7 @@
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/pixel_box.h"
 
 namespace strata {
 
@@ -36,25 +37,6 @@ constexpr std::uint32_t kNoSite = std::numeric_limits<std::uint32_t>::max();
 /// squared doubled distances below 2^53) and the field below 2^30 nodes (8 GiB).
 constexpr std::int64_t kMaxNodesPerSide = std::int64_t(1) << 24;
 constexpr std::int64_t kMaxNodes = std::int64_t(1) << 30;
-
-/// Image pixels [x0, x1) x [y0, y1); empty when x1 <= x0.
-struct PixelBox {
-    std::int64_t x0 = 0;
-    std::int64_t y0 = 0;
-    std::int64_t x1 = 0;
-    std::int64_t y1 = 0;
-
-    bool empty() const { return x1 <= x0 || y1 <= y0; }
-    PixelBox united(const PixelBox& o) const {
-        if (empty()) {
-            return o;
-        }
-        if (o.empty()) {
-            return *this;
-        }
-        return {std::min(x0, o.x0), std::min(y0, o.y0), std::max(x1, o.x1), std::max(y1, o.y1)};
-    }
-};
 
 /// Box of the pixels equal to `label` on slice k.
 PixelBox label_box(const SliceStack& stack, std::uint32_t k, std::uint16_t label) {
