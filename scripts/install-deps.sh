@@ -12,10 +12,17 @@ apt_packages=(
     libcgal-dev libgmp-dev libmpfr-dev                       # exact geometry (self-intersection)
     libgtest-dev libgmock-dev libbenchmark-dev               # tests and benchmarks
     clang-format-14                                          # formatting check
+    nodejs npm                                               # glTF validator (tests/node)
 )
 
 missing=()
 for p in "${apt_packages[@]}"; do
+    # note: a node that bundles npm (NodeSource's nodejs) is enough; Debian's npm conflicts
+    # with it, and asking apt for npm would replace that node.
+    if [[ "$p" == nodejs || "$p" == npm ]] && command -v node >/dev/null &&
+        command -v npm >/dev/null; then
+        continue
+    fi
     if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
         missing+=("$p")
     fi

@@ -5,6 +5,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
+# npm packages of the node tests (the Khronos glTF validator), exactly as locked; npm ci writes
+# node_modules/.package-lock.json, so reinstall when it is missing or older than the lock file.
+if [ ! -f tests/node/node_modules/.package-lock.json ] ||
+    [ tests/node/package-lock.json -nt tests/node/node_modules/.package-lock.json ]; then
+    echo "test: npm ci in tests/node"
+    (cd tests/node && npm ci --no-audit --no-fund)
+fi
 jobs=$(nproc)
 if [ "${1:-}" = "--sanitize" ]; then
     dir=build-asan

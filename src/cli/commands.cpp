@@ -1,6 +1,7 @@
 #include "cli/commands.h"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -15,9 +16,12 @@
 #include "core/report.h"
 #include "debug/draw_contours.h"
 #include "debug/draw_medial.h"
+#include "exporters/scene_gltf.h"
 #include "input/read_slice_stack.h"
 #include "input/write_nifti.h"
 #include "input/write_slice_stack.h"
+#include "mesh/mesh_checks.h"
+#include "mesh/mesh_io.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
 
@@ -219,6 +223,16 @@ Vec3 parse_spacing(const std::string& text) {
     return v;
 }
 
+/// A file name stem from a structure name: lower case letters, digits and '_'.
+std::string file_stem(const std::string& name) {
+    std::string stem;
+    for (const char c : name) {
+        const auto u = static_cast<unsigned char>(c);
+        stem += std::isalnum(u) ? char(std::tolower(u)) : '_';
+    }
+    return stem.empty() ? std::string("object") : stem;
+}
+
 int run_build(const BuildOptions& options) {
     const auto start = Clock::now();
     Report report;
@@ -267,6 +281,72 @@ int run_build(const BuildOptions& options) {
         }
     }
 
+    // Surfaces: one mesh file per object, and the scene as a plain glTF.
+    std::vector<SceneObject> scene;
+    std::vector<Json> surface_json;
+    std::vector<std::string> stems;
+    for (const ObjectSurface& surface : result.surfaces) {
+        const auto label =
+            std::find_if(stack.label_table.begin(), stack.label_table.end(),
+                         [&](const LabelInfo& l) { return l.value == surface.label; });
+        SceneObject object;
+        object.label = surface.label;
+        object.name = label != stack.label_table.end() ? label->name
+                                                       : "label " + std::to_string(surface.label);
+        if (label != stack.label_table.end()) {
+            object.srgb = {label->color[0] / 255.0, label->color[1] / 255.0,
+                           label->color[2] / 255.0};
+        }
+        object.mesh = surface_to_world(stack, result.slice_spacing_px, surface.mesh);
+        const MeshReport check = check_mesh(object.mesh);
+        std::string stem = file_stem(object.name);
+        if (std::find(stems.begin(), stems.end(), stem) != stems.end()) {
+            stem += "_" + std::to_string(surface.label);
+        }
+        stems.push_back(stem);
+        const std::filesystem::path mesh_file =
+            options.output_dir / "meshes" / (stem + "." + options.mesh_format);
+        if (!object.mesh.triangles.empty()) {
+            write_mesh(object.mesh, mesh_file);
+        }
+        Json genus = Json::array();
+        for (const int g : component_genera(check)) {
+            genus.push_back(g);
+        }
+        Json j = {{"label", surface.label},
+                  {"file", mesh_file.string()},
+                  {"vertices", object.mesh.positions.size()},
+                  {"triangles", object.mesh.triangles.size()},
+                  {"components", check.components.size()},
+                  {"genus", genus},
+                  {"closed_manifold", is_closed_manifold(check)},
+                  {"volume_ml", check.signed_volume / 1000.0},
+                  {"slabs", surface.slabs},
+                  {"caps", surface.caps},
+                  {"steiner_points", surface.steiner_points},
+                  {"fallback_unsimplified_slices", surface.unsimplified_slices},
+                  {"topology_mismatches", surface.topology_mismatches},
+                  {"failed_slabs", surface.failed_slabs}};
+        if (!is_closed_manifold(check)) {
+            j["problems"] = check.problems;
+            report.warn("triangulate", object.name,
+                        "the surface is not a closed manifold: " + check.problems.front());
+        }
+        surface_json.push_back(j);
+        scene.push_back(std::move(object));
+    }
+    const std::filesystem::path scene_file = options.output_dir / "scene.glb";
+    const bool any_triangles = std::any_of(
+        scene.begin(), scene.end(), [](const SceneObject& o) { return !o.mesh.triangles.empty(); });
+    if (any_triangles) {
+        SceneInfo info;
+        info.source = stack.source;
+        const Vec3 spacing = stack.spacing_mm();
+        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
+        info.generator = "strata 0.1.0";
+        write_scene_gltf(scene_file, scene, info);
+    }
+
     Json summary;
     summary["strata_version"] = "0.1.0";
     summary["input"] = stack_json(stack);
@@ -313,9 +393,17 @@ int run_build(const BuildOptions& options) {
                        {"points", medial_points},
                        {"unmatched_runs", unmatched_runs},
                        {"unmatched_points", unmatched_points}};
+        for (const Json& surface : surface_json) {
+            if (surface["label"] == label.value) {
+                o["surface"] = surface;
+            }
+        }
         objects.push_back(o);
     }
     summary["objects"] = objects;
+    if (any_triangles) {
+        summary["scene"] = scene_file.string();
+    }
     summary["output_dir"] = options.output_dir.string();
     Json timings = {{"input", input_seconds}};
     for (const StageTiming& t : result.timings) {
@@ -340,6 +428,23 @@ int run_build(const BuildOptions& options) {
                           static_cast<unsigned long long>(s.points_original),
                           static_cast<unsigned long long>(s.points_simplified), s.max_deviation_px);
             std::cout << buf;
+        }
+        std::cout << "surfaces (slice spacing " << result.slice_spacing_px << " px):\n";
+        for (const Json& j : surface_json) {
+            char buf[320];
+            std::snprintf(
+                buf, sizeof(buf),
+                "  %5u  %8zu triangles, %zu component(s), %s, %.2f mL, %u fallback "
+                "slice(s), %u mismatch(es) -> %s\n",
+                unsigned(j["label"].get<int>()), j["triangles"].get<std::size_t>(),
+                j["components"].get<std::size_t>(),
+                j["closed_manifold"].get<bool>() ? "closed manifold" : "NOT CLOSED",
+                j["volume_ml"].get<double>(), j["fallback_unsimplified_slices"].get<unsigned>(),
+                j["topology_mismatches"].get<unsigned>(), j["file"].get<std::string>().c_str());
+            std::cout << buf;
+        }
+        if (any_triangles) {
+            std::cout << "scene: " << scene_file.string() << '\n';
         }
         std::cout << "timings: input " << input_seconds << " s";
         for (const StageTiming& t : result.timings) {

@@ -26,6 +26,7 @@ struct BuildOptions {
     std::filesystem::path debug_dir;  ///< --debug-dir: per-slice debug pictures; empty: none
     double tolerance_px = 0.5;        ///< contour simplification tolerance, pixels
     unsigned threads = 0;             ///< worker threads, 0 = all cores
+    std::string mesh_format = "ply";  ///< per-object mesh files: ply, obj or stl
     OutputOptions output;
 };
 

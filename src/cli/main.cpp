@@ -70,6 +70,11 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     build_cmd->add_option("--threads", build.threads, "Worker threads (0: all cores)")
         ->capture_default_str();
+    build_cmd
+        ->add_option("--mesh-format", build.mesh_format,
+                     "Format of the per-object full-resolution meshes in OUTPUT/meshes")
+        ->check(CLI::IsMember({"ply", "obj", "stl"}))
+        ->capture_default_str();
     add_output_flags(*build_cmd, build.output);
 
     strata::cli::PhantomCommandOptions phantom;

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -75,5 +76,18 @@ struct SliceContours {
     std::vector<SliceContourSet> slices;  ///< one per slice
     std::vector<RegionLink> links;        ///< between consecutive slices, sorted by slice, label
 };
+
+/// Sorted distinct labels that have contours on some slice.
+inline std::vector<std::uint16_t> contour_labels(const SliceContours& contours) {
+    std::vector<std::uint16_t> labels;
+    for (const SliceContourSet& set : contours.slices) {
+        for (const SliceLabelRegions& regions : set.labels) {
+            labels.push_back(regions.label);
+        }
+    }
+    std::sort(labels.begin(), labels.end());
+    labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+    return labels;
+}
 
 }  // namespace strata

@@ -501,14 +501,7 @@ std::vector<SliceDistanceFields> compute_distance_fields(const SliceStack& stack
                         std::to_string(stack.width) + "x" + std::to_string(stack.height) +
                         " with " + std::to_string(stack.depth) + " slices (the stack's)");
     }
-    std::vector<std::uint16_t> labels;
-    for (const SliceContourSet& set : contours.slices) {
-        for (const SliceLabelRegions& regions : set.labels) {
-            labels.push_back(regions.label);
-        }
-    }
-    std::sort(labels.begin(), labels.end());
-    labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+    const std::vector<std::uint16_t> labels = contour_labels(contours);
     std::vector<std::int32_t> label_index(65536, -1);
     for (std::size_t i = 0; i < labels.size(); ++i) {
         label_index[labels[i]] = static_cast<std::int32_t>(i);

@@ -29,6 +29,7 @@
 
 #include "core/atomic_write.h"
 #include "core/error.h"
+#include "core/file_names.h"
 
 namespace strata {
 
@@ -42,13 +43,6 @@ constexpr std::uint64_t kMaxVertices = std::numeric_limits<std::uint32_t>::max()
 
 [[noreturn]] void fail(ErrorCode code, const std::filesystem::path& path, const std::string& what) {
     throw Error(code, path.string() + ": " + what);
-}
-
-std::string lowercase_extension(const std::filesystem::path& path) {
-    std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    return ext;
 }
 
 std::string read_file(const std::filesystem::path& path) {

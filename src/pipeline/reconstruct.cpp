@@ -1,6 +1,13 @@
 #include "pipeline/reconstruct.h"
 
+#include <algorithm>
 #include <chrono>
+#include <utility>
+
+#include "core/parallel.h"
+#include "mesh/mesh_checks.h"
+#include "mesh/self_intersection.h"
+#include "triangulate/reference_topology.h"
 
 namespace strata {
 
@@ -21,6 +28,61 @@ private:
 };
 
 }  // namespace
+
+double slice_spacing_px(const SliceStack& stack) {
+    const Vec3 spacing = stack.spacing_mm();
+    return spacing.z / spacing.x;
+}
+
+Vec3 slice_to_world(const SliceStack& stack, double slice_spacing_px, Vec3 p) {
+    return stack.index_to_world.apply({p.x - 0.5, p.y - 0.5, p.z / slice_spacing_px});
+}
+
+TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const TriMesh& mesh) {
+    TriMesh world = mesh;
+    for (Vec3& p : world.positions) {
+        p = slice_to_world(stack, slice_spacing_px, p);
+    }
+    if (stack.index_to_world.determinant() < 0.0) {
+        for (auto& t : world.triangles) {
+            std::swap(t[1], t[2]);
+        }
+    }
+    return world;
+}
+
+void verify_surface(const SliceStack& stack, ObjectSurface& surface) {
+    ObjectSurface::Verification& v = surface.verification;
+    v = {};
+    v.done = true;
+    const MeshReport report = check_mesh(surface.mesh);
+    v.closed_manifold = is_closed_manifold(report);
+    v.outward = report.signed_volume > 0.0;
+    const ReferenceTopology reference = reference_topology(stack, surface.label);
+    v.reference = describe(reference);
+    std::vector<int> expected;
+    for (const ReferenceSurface& s : reference.surfaces) {
+        expected.push_back(s.genus);
+    }
+    std::vector<int> genus;
+    for (const MeshComponent& c : report.components) {
+        genus.push_back(c.genus.value_or(-1));
+    }
+    std::sort(expected.begin(), expected.end());
+    std::sort(genus.begin(), genus.end());
+    v.topology_as_reference = v.closed_manifold && genus == expected;
+    v.self_intersection_free = v.closed_manifold && !has_self_intersections(surface.mesh);
+    if (!v.closed_manifold) {
+        v.problem = report.problems.empty() ? "not a closed manifold" : report.problems.front();
+    } else if (!v.outward) {
+        v.problem = "the surface faces inwards";
+    } else if (!v.self_intersection_free) {
+        v.problem = "the surface intersects itself";
+    } else if (!v.topology_as_reference) {
+        v.problem =
+            std::to_string(genus.size()) + " surface(s) where the reference has " + v.reference;
+    }
+}
 
 Reconstruction reconstruct(const SliceStack& stack,
                            const ReconstructOptions& options,
@@ -50,6 +112,36 @@ Reconstruction reconstruct(const SliceStack& stack,
     }
     result.medial_axes = extract_medial_axes(result.contours, result.fields, medial_options);
     clock.done("medial");
+
+    TriangulateOptions triangulate_options = options.triangulate;
+    triangulate_options.threads = options.threads;
+    triangulate_options.slice_spacing_px = result.slice_spacing_px = slice_spacing_px(stack);
+    if (!triangulate_options.progress) {
+        triangulate_options.progress = options.progress;
+    }
+    result.surfaces = triangulate_surfaces(result.contours, result.fields, result.medial_axes,
+                                           triangulate_options);
+    clock.done("triangulate");
+    if (options.verify) {
+        parallel_for(result.surfaces.size(), options.threads,
+                     [&](std::size_t i) { verify_surface(stack, result.surfaces[i]); });
+        clock.done("verify");
+        for (const ObjectSurface& surface : result.surfaces) {
+            if (!surface.verification.ok()) {
+                report.warn("verify", "label " + std::to_string(surface.label),
+                            surface.verification.problem);
+            }
+        }
+    }
+    for (const ObjectSurface& surface : result.surfaces) {
+        for (const SlabIssue& issue : surface.issues) {
+            report.warn("triangulate",
+                        "label " + std::to_string(surface.label) + ", slices " +
+                            std::to_string(issue.lower_slice) + "-" +
+                            std::to_string(issue.lower_slice + 1),
+                        issue.what);
+        }
+    }
     for (std::uint32_t k = 0; k < stack.depth; ++k) {
         if (result.contours.slices[k].contours.empty() && k > 0 && k + 1 < stack.depth &&
             !result.contours.slices[k - 1].contours.empty() &&

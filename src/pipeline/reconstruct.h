@@ -10,6 +10,7 @@
 #include "distance/distance_field.h"
 #include "input/slice_stack.h"
 #include "medial/medial_axis.h"
+#include "triangulate/surface.h"
 
 namespace strata {
 
@@ -18,6 +19,10 @@ struct ReconstructOptions {
     ContourOptions contours;
     DistanceOptions distance;
     MedialOptions medial;
+    TriangulateOptions triangulate;  ///< slice spacing is taken from the stack
+    /// Check every surface after triangulation: manifold, outward, no self-intersection (exact),
+    /// components and genus of the reference volume R. Failures become warnings.
+    bool verify = true;
     unsigned threads = 0;  ///< worker threads of every stage, 0 = all cores
     ProgressFn progress;   ///< stage progress (may be empty)
 };
@@ -28,11 +33,26 @@ struct StageTiming {
     double seconds = 0.0;
 };
 
+/// Slice spacing in in-plane pixels: the length of the affine's k column over the i column's.
+double slice_spacing_px(const SliceStack& stack);
+
+/// Maps a slice-space point (x, y px on the contour grid, z = k d px) to patient LPS mm.
+Vec3 slice_to_world(const SliceStack& stack, double slice_spacing_px, Vec3 p);
+
+/// A slice-space surface in patient LPS mm: every position through slice_to_world, triangles
+/// reversed when the affine mirrors (negative determinant) so they still face outwards.
+TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const TriMesh& mesh);
+
+/// Fills `surface.verification` (see ObjectSurface::Verification) against `stack`'s label.
+void verify_surface(const SliceStack& stack, ObjectSurface& surface);
+
 /// Everything the pipeline produced, stage by stage.
 struct Reconstruction {
     SliceContours contours;
     std::vector<SliceDistanceFields> fields;  ///< one per slice
     std::vector<MedialAxis> medial_axes;      ///< one per consecutive slice pair
+    std::vector<ObjectSurface> surfaces;      ///< one closed surface per label, slice space
+    double slice_spacing_px = 1.0;            ///< d of the slice-space surfaces
     std::vector<StageTiming> timings;
 };
 

@@ -1,0 +1,407 @@
+// A plain glTF 2.0 scene (Khronos, "glTF 2.0 Specification", version 2.0.1, 2021): one node
+// and one indexed triangle mesh per object under a root node holding the patient -> glTF
+// transform. Colours are linearised with the sRGB transfer function (IEC 61966-2-1:1999).
+//
+// tinygltf serialises the model; the vertex data, alignment and accessor bounds are ours. Its
+// file writers open the final paths directly, so we serialise to memory and let
+// write_file_atomically place the bytes.
+#include "exporters/scene_gltf.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
+
+#include "core/atomic_write.h"
+#include "core/error.h"
+#include "core/file_names.h"
+
+namespace strata {
+
+namespace {
+
+constexpr double kRoughness = 0.6;
+constexpr std::size_t kMaxShortVertices = 65535;  // index 65535 is the primitive restart value
+constexpr std::size_t kMaxIntVertices = std::numeric_limits<std::uint32_t>::max();
+
+/// LPS millimetres -> glTF metres, column-major (glTF `matrix`): the columns are the images of
+/// +x (left -> glTF +X), +y (posterior -> glTF -Z) and +z (superior -> glTF +Y), times 0.001.
+/// Determinant +1e-9: a rotation with uniform scale, not a mirror.
+const std::vector<double> kPatientToGltf{
+    0.001, 0,     0,      0,  // image of +x_LPS
+    0,     0,     -0.001, 0,  // image of +y_LPS
+    0,     0.001, 0,      0,  // image of +z_LPS
+    0,     0,     0,      1,
+};
+
+[[noreturn]] void fail(ErrorCode code, const std::filesystem::path& path, const std::string& what) {
+    throw Error(code, path.string() + ": " + what);
+}
+
+std::string object_name(const SceneObject& object) {
+    return object.name.empty() ? "label " + std::to_string(object.label) : object.name;
+}
+
+/// "object 1 'liver' (label 5)" for messages.
+std::string describe(const SceneObject& object, std::size_t index) {
+    return "object " + std::to_string(index) + " '" + object_name(object) + "' (label " +
+           std::to_string(object.label) + ")";
+}
+
+/// sRGB-encoded channel in [0, 1] -> linear (IEC 61966-2-1).
+double srgb_to_linear(double c) {
+    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+// note: one coordinate per call (and strata_target_defaults' -fno-tree-slp-vectorize): GCC
+// 12.2 at -O2 may drop the float rounding of adjacent double -> float conversions.
+[[gnu::noinline]] float to_float(double x) {
+    return static_cast<float>(x);
+}
+
+void check_object(const std::filesystem::path& path, const SceneObject& object, std::size_t index) {
+    const TriMesh& mesh = object.mesh;
+    const std::size_t n = mesh.positions.size();
+    if (n > kMaxIntVertices) {
+        fail(ErrorCode::Unsupported, path,
+             describe(object, index) + ": " + std::to_string(n) +
+                 " vertices, at most 4294967295 fit 32-bit glTF indices");
+    }
+    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+        for (std::uint32_t v : mesh.triangles[t]) {
+            if (v >= n) {
+                fail(ErrorCode::InvalidInput, path,
+                     describe(object, index) + ": triangle " + std::to_string(t) +
+                         " uses vertex index " + std::to_string(v) + ", expected < " +
+                         std::to_string(n) + " (the number of vertices)");
+            }
+        }
+    }
+    for (std::size_t v = 0; v < n; ++v) {
+        const Vec3 p = mesh.positions[v];
+        for (int k = 0; k < 3; ++k) {
+            if (!std::isfinite(to_float(p[k]))) {
+                fail(ErrorCode::InvalidInput, path,
+                     describe(object, index) + ": vertex " + std::to_string(v) +
+                         " has a coordinate that is not finite as float32 (" +
+                         std::to_string(p[k]) + ")");
+            }
+        }
+    }
+    for (double c : object.srgb) {
+        if (!(c >= 0.0 && c <= 1.0)) {
+            fail(ErrorCode::InvalidInput, path,
+                 describe(object, index) + ": colour channel " + std::to_string(c) +
+                     ", expected sRGB in [0, 1]");
+        }
+    }
+}
+
+/// Area-weighted vertex normals (the sum of the incident triangles' cross products), unit
+/// length; +z where the sum vanishes.
+std::vector<Vec3> vertex_normals(const TriMesh& mesh) {
+    std::vector<Vec3> normals(mesh.positions.size());
+    for (const auto& t : mesh.triangles) {
+        const Vec3 a = mesh.positions[t[0]];
+        const Vec3 n = cross(mesh.positions[t[1]] - a, mesh.positions[t[2]] - a);
+        for (std::uint32_t v : t) {
+            normals[v] = normals[v] + n;
+        }
+    }
+    for (Vec3& n : normals) {
+        const double length = norm(n);
+        // note: a sum of products of finite floats can still overflow to infinity
+        n = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * n : Vec3{0, 0, 1};
+    }
+    return normals;
+}
+
+/// The one binary buffer: appends 4-byte aligned buffer views.
+class BufferBuilder {
+public:
+    explicit BufferBuilder(tinygltf::Model& model) : model_(model) {}
+
+    /// Appends `bytes` as a new buffer view with `target`; returns its index.
+    int add_view(const void* bytes, std::size_t size, int target) {
+        tinygltf::BufferView view;
+        view.buffer = 0;
+        view.byteOffset = data_.size();
+        view.byteLength = size;
+        view.target = target;  // byteStride stays 0: tightly packed, omitted
+        const auto* p = static_cast<const unsigned char*>(bytes);
+        data_.insert(data_.end(), p, p + size);
+        data_.resize((data_.size() + 3) / 4 * 4, 0);
+        model_.bufferViews.push_back(std::move(view));
+        return static_cast<int>(model_.bufferViews.size() - 1);
+    }
+
+    int add_accessor(int view, int component_type, int type, std::size_t count) {
+        tinygltf::Accessor accessor;
+        accessor.bufferView = view;
+        accessor.componentType = component_type;
+        accessor.type = type;
+        accessor.count = count;
+        model_.accessors.push_back(std::move(accessor));
+        return static_cast<int>(model_.accessors.size() - 1);
+    }
+
+    std::vector<unsigned char> take() { return std::move(data_); }
+
+private:
+    tinygltf::Model& model_;
+    std::vector<unsigned char> data_;
+};
+
+template <class Index>
+std::vector<Index> flat_indices(const TriMesh& mesh) {
+    std::vector<Index> out;
+    out.reserve(3 * mesh.triangles.size());
+    for (const auto& t : mesh.triangles) {
+        for (std::uint32_t v : t) {
+            out.push_back(static_cast<Index>(v));
+        }
+    }
+    return out;
+}
+
+/// Adds the mesh, material and node of one object; returns the node index.
+int add_object(tinygltf::Model& model,
+               BufferBuilder& buffer,
+               const SceneObject& object,
+               const SceneInfo& info) {
+    const TriMesh& mesh = object.mesh;
+    const std::size_t n = mesh.positions.size();
+
+    std::vector<float> positions;
+    positions.reserve(3 * n);
+    std::vector<double> min(3, std::numeric_limits<double>::infinity());
+    std::vector<double> max(3, -std::numeric_limits<double>::infinity());
+    for (const Vec3& p : mesh.positions) {
+        for (int k = 0; k < 3; ++k) {
+            const float f = to_float(p[k]);
+            positions.push_back(f);
+            min[k] = std::min(min[k], static_cast<double>(f));
+            max[k] = std::max(max[k], static_cast<double>(f));
+        }
+    }
+    std::vector<float> normals;
+    normals.reserve(3 * n);
+    for (const Vec3& v : vertex_normals(mesh)) {
+        for (int k = 0; k < 3; ++k) {
+            normals.push_back(to_float(v[k]));
+        }
+    }
+
+    tinygltf::Primitive primitive;
+    primitive.mode = TINYGLTF_MODE_TRIANGLES;  // note: tinygltf's default -1 would be written
+    const int position_view = buffer.add_view(positions.data(), positions.size() * sizeof(float),
+                                              TINYGLTF_TARGET_ARRAY_BUFFER);
+    const int position_accessor =
+        buffer.add_accessor(position_view, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+    model.accessors[position_accessor].minValues = min;
+    model.accessors[position_accessor].maxValues = max;
+    primitive.attributes["POSITION"] = position_accessor;
+    const int normal_view = buffer.add_view(normals.data(), normals.size() * sizeof(float),
+                                            TINYGLTF_TARGET_ARRAY_BUFFER);
+    primitive.attributes["NORMAL"] =
+        buffer.add_accessor(normal_view, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+
+    const std::size_t index_count = 3 * mesh.triangles.size();
+    if (n <= kMaxShortVertices) {
+        const auto indices = flat_indices<std::uint16_t>(mesh);
+        const int view = buffer.add_view(indices.data(), indices.size() * sizeof(std::uint16_t),
+                                         TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+        primitive.indices = buffer.add_accessor(view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                                TINYGLTF_TYPE_SCALAR, index_count);
+    } else {
+        const auto indices = flat_indices<std::uint32_t>(mesh);
+        const int view = buffer.add_view(indices.data(), indices.size() * sizeof(std::uint32_t),
+                                         TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+        primitive.indices = buffer.add_accessor(view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+                                                TINYGLTF_TYPE_SCALAR, index_count);
+    }
+
+    const std::string name = object_name(object);
+    tinygltf::Material material;
+    material.name = name;
+    material.pbrMetallicRoughness.baseColorFactor = {srgb_to_linear(object.srgb[0]),
+                                                     srgb_to_linear(object.srgb[1]),
+                                                     srgb_to_linear(object.srgb[2]), 1.0};
+    material.pbrMetallicRoughness.metallicFactor = 0.0;
+    material.pbrMetallicRoughness.roughnessFactor = kRoughness;
+    material.doubleSided = false;  // closed, outward-oriented surfaces
+    model.materials.push_back(std::move(material));
+    primitive.material = static_cast<int>(model.materials.size() - 1);
+
+    tinygltf::Mesh gltf_mesh;
+    gltf_mesh.name = name;
+    gltf_mesh.primitives.push_back(std::move(primitive));
+    model.meshes.push_back(std::move(gltf_mesh));
+
+    tinygltf::Value::Array spacing;
+    for (double s : info.spacing_mm) {
+        spacing.emplace_back(s);
+    }
+    tinygltf::Value::Object extras;
+    extras["label"] = tinygltf::Value(static_cast<int>(object.label));
+    extras["source"] = tinygltf::Value(info.source);
+    extras["spacing_mm"] = tinygltf::Value(std::move(spacing));
+    extras["units"] = tinygltf::Value(std::string("mm"));
+
+    tinygltf::Node node;
+    node.name = name;
+    node.mesh = static_cast<int>(model.meshes.size() - 1);
+    node.extras = tinygltf::Value(std::move(extras));
+    model.nodes.push_back(std::move(node));
+    return static_cast<int>(model.nodes.size() - 1);
+}
+
+/// Percent-encodes everything but RFC 3986 unreserved characters (a file name as a relative
+/// URI reference).
+std::string uri_encode(const std::string& name) {
+    static const char* const kHex = "0123456789ABCDEF";
+    std::string out;
+    for (unsigned char c : name) {
+        if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~') {
+            out += static_cast<char>(c);
+        } else {
+            out += '%';
+            out += kHex[c >> 4];
+            out += kHex[c & 15];
+        }
+    }
+    return out;
+}
+
+std::string serialise(const std::filesystem::path& path,
+                      const tinygltf::Model& model,
+                      bool binary) {
+    tinygltf::TinyGLTF writer;
+    std::ostringstream out;
+    if (!writer.WriteGltfSceneToStream(&model, out, /*prettyPrint=*/!binary,
+                                       /*writeBinary=*/binary)) {
+        fail(ErrorCode::Internal, path, "tinygltf: serialising the scene failed");
+    }
+    return std::move(out).str();
+}
+
+/// A unique name beside `path` for staging a file.
+std::filesystem::path staging_name(const std::filesystem::path& path) {
+    static std::atomic<unsigned> counter{0};
+    std::filesystem::path staged = path;
+    staged += ".staged." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+    return staged;
+}
+
+/// `.gltf` + `.bin`: the JSON is staged first, so a failing `.bin` leaves both old files; the
+/// `.bin` then replaces the old one and the JSON follows (a reader racing the two renames may
+/// see the new `.bin` with the old JSON).
+void write_gltf_pair(const std::filesystem::path& path,
+                     tinygltf::Model& model,
+                     std::vector<unsigned char> bin) {
+    const std::filesystem::path bin_path = std::filesystem::path(path).replace_extension(".bin");
+    // note: tinygltf's stream writer embeds every buffer as a data URI; serialise an empty
+    // buffer and point it at the .bin afterwards.
+    model.buffers[0].data.clear();
+    nlohmann::json json;
+    try {
+        json = nlohmann::json::parse(serialise(path, model, /*binary=*/false));
+        json["buffers"][0]["uri"] = uri_encode(bin_path.filename().string());
+        json["buffers"][0]["byteLength"] = bin.size();
+    } catch (const nlohmann::json::exception& e) {
+        fail(ErrorCode::Internal, path, std::string("tinygltf output: ") + e.what());
+    }
+    const std::string text = json.dump(2) + "\n";
+
+    const std::filesystem::path staged = staging_name(path);
+    write_file_atomically(staged, text);
+    std::error_code ec;
+    try {
+        write_file_atomically(
+            bin_path, std::string_view(reinterpret_cast<const char*>(bin.data()), bin.size()));
+    } catch (...) {
+        std::filesystem::remove(staged, ec);
+        throw;
+    }
+    std::filesystem::rename(staged, path, ec);
+    if (ec) {
+        std::error_code ignored;
+        std::filesystem::remove(staged, ignored);
+        fail(ErrorCode::Io, path, "cannot rename " + staged.string() + ": " + ec.message());
+    }
+}
+
+}  // namespace
+
+void write_scene_gltf(const std::filesystem::path& path,
+                      const std::vector<SceneObject>& objects,
+                      const SceneInfo& info) {
+    const std::string ext = lowercase_extension(path);
+    if (ext != ".glb" && ext != ".gltf") {
+        fail(ErrorCode::Unsupported, path,
+             "unsupported extension '" + path.extension().string() + "', expected .glb or .gltf");
+    }
+    if (objects.empty()) {
+        fail(ErrorCode::InvalidInput, path, "no objects to write, expected at least one");
+    }
+    for (double s : info.spacing_mm) {
+        if (!std::isfinite(s)) {
+            fail(ErrorCode::InvalidInput, path, "spacing_mm is not finite");
+        }
+    }
+    std::size_t non_empty = 0;
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+        check_object(path, objects[i], i);
+        non_empty += objects[i].mesh.triangles.empty() ? 0 : 1;
+    }
+    if (non_empty == 0) {
+        fail(ErrorCode::InvalidInput, path,
+             std::to_string(objects.size()) +
+                 " objects, none with a triangle: nothing to write, expected at least one "
+                 "non-empty object");
+    }
+
+    tinygltf::Model model;
+    model.asset.version = "2.0";
+    model.asset.generator = info.generator;
+
+    tinygltf::Node root;
+    root.name = "patient";
+    root.matrix = kPatientToGltf;
+    model.nodes.push_back(std::move(root));
+
+    BufferBuilder buffer(model);
+    std::vector<int> children;
+    for (const SceneObject& object : objects) {
+        if (!object.mesh.triangles.empty()) {
+            children.push_back(add_object(model, buffer, object, info));
+        }
+    }
+    model.nodes[0].children = std::move(children);
+
+    tinygltf::Scene scene;
+    scene.nodes = {0};
+    model.scenes.push_back(std::move(scene));
+    model.defaultScene = 0;
+
+    std::vector<unsigned char> bin = buffer.take();
+    model.buffers.emplace_back();
+    if (ext == ".glb") {
+        model.buffers[0].data = std::move(bin);
+        write_file_atomically(path, serialise(path, model, /*binary=*/true));
+    } else {
+        write_gltf_pair(path, model, std::move(bin));
+    }
+}
+
+}  // namespace strata

@@ -1,0 +1,53 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "mesh/tri_mesh.h"
+
+namespace strata {
+
+/// One structure of a scene: a named, coloured surface.
+struct SceneObject {
+    std::string name;              ///< structure name (node, mesh and material name)
+    std::uint16_t label = 0;       ///< label value in the source
+    std::array<double, 3> srgb{};  ///< display colour, sRGB, each channel in [0, 1]
+    TriMesh mesh;  ///< positions in patient LPS millimetres, outward triangles counter-clockwise
+};
+
+/// Where a scene comes from; copied into every object node's `extras`.
+struct SceneInfo {
+    std::string source;                  ///< input file or phantom name
+    std::array<double, 3> spacing_mm{};  ///< voxel spacing (x, y, slice), millimetres
+    std::string generator;               ///< glTF `asset.generator`, e.g. "strata 0.1.0"
+};
+
+/// Writes `objects` as a plain (single-resolution) glTF 2.0 scene, binary `.glb` (one file) or
+/// `.gltf` (JSON plus `<stem>.bin` beside it), chosen by the extension of `path`
+/// (case-insensitive). Layout (../shared/DESIGN.md section 4): one root node "patient" whose
+/// `matrix` maps patient LPS millimetres to glTF metres (glTF X = left = +x, Y = superior = +z,
+/// Z = anterior = -y, scale 0.001; a rotation, not a mirror), so vertex data stays in
+/// millimetres; under it one node per object with one mesh (one TRIANGLES primitive: POSITION
+/// as float32 with exact min/max, NORMAL as unit area-weighted vertex normals, indices
+/// UNSIGNED_SHORT when there are at most 65535 vertices, else UNSIGNED_INT) and one material
+/// (sRGB colour linearised into `baseColorFactor`, metallic 0, roughness 0.6, single-sided).
+/// Node `extras`: {"label", "source", "spacing_mm", "units": "mm"}; an empty name becomes
+/// "label <value>". Objects without triangles are skipped; unreferenced vertices are kept (a
+/// vertex whose normal is undefined, e.g. unreferenced or only in degenerate triangles, gets +z).
+///
+/// Atomic: everything is built in memory and written to temporary files that are renamed into
+/// place, so on failure existing files are untouched and no partial file is left. Parent folders
+/// are created. For `.gltf` the `.bin` is renamed first, then the `.gltf`.
+/// \throw Error{Unsupported} for another extension or more than 2^32 - 1 vertices in an object;
+///        Error{InvalidInput} if `objects` is empty or no object has a triangle, a triangle
+///        index is out of range (the message names the object, triangle and index), a position
+///        is not finite as float32, a colour channel is outside [0, 1] or the spacing is not
+///        finite; Error{Io} if a file cannot be written; Error{Internal} if tinygltf fails.
+void write_scene_gltf(const std::filesystem::path& path,
+                      const std::vector<SceneObject>& objects,
+                      const SceneInfo& info);
+
+}  // namespace strata

@@ -1,0 +1,1288 @@
+#include "triangulate/surface.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstddef>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <numeric>
+#include <string>
+#include <utility>
+
+#include <CGAL/Box_intersection_d/Box_with_info_d.h>
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
+#include <CGAL/box_intersection_d.h>
+#include <CGAL/intersections.h>
+
+#include "core/parallel.h"
+
+namespace strata {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_exact_constructions_kernel;
+using Point = Kernel::Point_2;
+using Segment = Kernel::Segment_2;
+
+/// What a planar vertex stands for in 3D: a point of slice k's contour ring (`lower`), of slice
+/// k+1's (`upper`), both where the contours meet, or a Steiner point between the slices.
+struct VertexInfo {
+    std::int32_t lower = -1;    ///< global vertex id at z_k
+    std::int32_t upper = -1;    ///< global vertex id at z_k+1
+    std::int32_t steiner = -1;  ///< index into the slab's Steiner list
+};
+
+enum Level : std::int8_t { kUnset = -1, kLow = 0, kHigh = 1, kBetween = 2 };
+
+struct FaceInfo {
+    std::int32_t lower_region = -1;  ///< region of slice k containing the face, -1 none
+    std::int32_t upper_region = -1;
+    std::uint32_t lower_background = 0;  ///< background component of slice k (region -1 only)
+    std::uint32_t upper_background = 0;
+    bool seen = false;
+    std::array<Level, 3> corner{kUnset, kUnset, kUnset};
+};
+
+using Vb = CGAL::Triangulation_vertex_base_with_info_2<VertexInfo, Kernel>;
+using Fbi = CGAL::Triangulation_face_base_with_info_2<FaceInfo, Kernel>;
+using Fb = CGAL::Constrained_triangulation_face_base_2<Kernel, Fbi>;
+using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
+using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_intersections_tag>;
+using VertexHandle = Cdt::Vertex_handle;
+using FaceHandle = Cdt::Face_handle;
+
+inline int ccw(int i) {
+    return Cdt::ccw(i);
+}
+inline int cw(int i) {
+    return Cdt::cw(i);
+}
+
+/// Union-find over 0..n-1 (path halving).
+class DisjointSets {
+public:
+    explicit DisjointSets(std::size_t n) : parent_(n) {
+        std::iota(parent_.begin(), parent_.end(), std::size_t(0));
+    }
+    std::size_t find(std::size_t x) {
+        while (parent_[x] != x) {
+            x = parent_[x] = parent_[parent_[x]];
+        }
+        return x;
+    }
+    void join(std::size_t a, std::size_t b) { parent_[find(a)] = find(b); }
+
+private:
+    std::vector<std::size_t> parent_;
+};
+
+/// The contour points of one contour as used by every triangle touching its slice: the
+/// simplified vertices plus every point where a contour of a neighbouring slice crosses, touches
+/// or overlaps one of its edges, in contour order.
+struct Ring {
+    std::vector<Point> points;
+    std::vector<std::uint32_t> ids;  ///< global vertex ids (z = k d)
+};
+
+/// Key of a constrained edge: its two vertices, in a fixed order.
+using EdgeKey = std::pair<const void*, const void*>;
+EdgeKey edge_key(VertexHandle a, VertexHandle b) {
+    const void* pa = &*a;
+    const void* pb = &*b;
+    return pa < pb ? EdgeKey{pa, pb} : EdgeKey{pb, pa};
+}
+
+/// Which contour (local index on its slice) an edge belongs to, per side of the slab.
+struct EdgeOwner {
+    std::int32_t lower = -1;
+    std::int32_t upper = -1;
+};
+
+class LabelSurface {
+public:
+    LabelSurface(const SliceContours& contours,
+                 const std::vector<SliceDistanceFields>& fields,
+                 const std::vector<MedialAxis>& medial_axes,
+                 const TriangulateOptions& options,
+                 std::uint16_t label)
+        : contours_(contours),
+          fields_(fields),
+          medial_axes_(medial_axes),
+          options_(options),
+          label_(label) {}
+
+    ObjectSurface build();
+
+private:
+    // --- set-up --------------------------------------------------------------------------------
+    void collect_contours();
+    void collect_links();
+    void find_crossings(std::uint32_t k);
+    void build_rings();
+
+    // --- per slab ------------------------------------------------------------------------------
+    void triangulate_slab(std::uint32_t k);
+    void insert_rings(Cdt& cdt,
+                      std::uint32_t slice,
+                      bool upper,
+                      std::map<EdgeKey, EdgeOwner>& owners);
+    void flood_regions(Cdt& cdt, std::uint32_t k, const std::map<EdgeKey, EdgeOwner>& owners);
+    void check_overlap_topology(Cdt& cdt, std::uint32_t k);
+    bool in_lower(const FaceInfo& f, std::uint32_t k) const;
+    bool in_upper(const FaceInfo& f, std::uint32_t k) const;
+    bool in_surface(FaceHandle f, std::uint32_t k) const;
+    Level boundary_class(FaceHandle f, int i, std::uint32_t k) const;
+    bool is_boundary(FaceHandle f, int i, std::uint32_t k) const;
+    /// Fills the corner levels of the wedge of `f` around its vertex `i`; returns false when the
+    /// wedge needs a Steiner point first (then `refine` receives one).
+    bool resolve_corner(Cdt& cdt, FaceHandle f, int i, std::uint32_t k, std::vector<Point>& refine);
+    double height_t(const Point& p, std::uint32_t k) const;
+    VertexHandle insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k);
+
+    // --- caps ----------------------------------------------------------------------------------
+    void cap_region(std::uint32_t k, std::uint32_t region, bool top, bool bottom);
+
+    std::uint32_t add_vertex(Vec2 p, double z) {
+        surface_.mesh.positions.push_back({p.x, p.y, z});
+        return std::uint32_t(surface_.mesh.positions.size() - 1);
+    }
+    double slice_z(std::uint32_t k) const { return options_.slice_spacing_px * k; }
+    std::uint32_t owner_region(std::uint32_t slice, std::uint32_t local) const {
+        const std::vector<Contour>& all = contours_.slices[slice].contours;
+        const Contour& c = all[label_contours_[slice][local]];
+        return c.is_hole ? all[std::size_t(c.parent)].region : c.region;
+    }
+    /// The background component on the outer side of an outer contour, inside a hole contour.
+    std::uint32_t background_beside(std::uint32_t slice, std::uint32_t local) const {
+        const std::vector<Contour>& all = contours_.slices[slice].contours;
+        const Contour& c = all[label_contours_[slice][local]];
+        if (c.is_hole) {
+            return c.region;
+        }
+        return c.parent >= 0 ? all[std::size_t(c.parent)].region : 0;
+    }
+    const DistanceField* field(std::uint32_t slice) const {
+        for (const DistanceField& f : fields_[slice].fields) {
+            if (f.label == label_) {
+                return &f;
+            }
+        }
+        return nullptr;
+    }
+    void issue(std::uint32_t k, std::string what) {
+        surface_.issues.push_back({k, std::move(what)});
+    }
+
+    const SliceContours& contours_;
+    const std::vector<SliceDistanceFields>& fields_;
+    const std::vector<MedialAxis>& medial_axes_;
+    const TriangulateOptions& options_;
+    std::uint16_t label_;
+
+    ObjectSurface surface_;
+    /// Per slice: indices (into the slice's contour list) of this label's contours.
+    std::vector<std::vector<std::uint32_t>> label_contours_;
+    /// Per slice: number of foreground regions of this label.
+    std::vector<std::uint32_t> region_count_;
+    /// Per slice, per region: linked to a region of the next / previous slice.
+    std::vector<std::vector<bool>> linked_up_;
+    std::vector<std::vector<bool>> linked_down_;
+    /// Per slab: number of overlap pieces between (lower region, upper region).
+    std::vector<std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t>> link_pieces_;
+    /// Per slab: background links, each (slice k components, slice k+1 components), sorted.
+    std::vector<std::vector<std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>>>
+        background_links_;
+    /// Per slice, per local contour, per simplified edge: extra points on it.
+    std::vector<std::vector<std::vector<std::vector<Point>>>> splits_;
+    /// Per slice, per local contour.
+    std::vector<std::vector<Ring>> rings_;
+    /// Steiner points of the slab being built: height parameter t and global id (-1: unused).
+    std::vector<double> steiner_t_;
+    std::vector<std::int32_t> steiner_id_;
+    std::vector<Vec2> steiner_xy_;
+    std::size_t unowned_edges_ = 0;
+    std::vector<std::uint32_t> mismatched_slabs_;
+
+public:
+    /// Slabs whose simplified contours overlapped unlike the pixels (filled by build()).
+    const std::vector<std::uint32_t>& mismatched_slabs() const { return mismatched_slabs_; }
+
+private:
+    /// Collinear overlaps of a slice k edge and a slice k+1 edge (slice, local contour, edge):
+    /// every point on one edge inside the overlap must be on the other too.
+    struct Overlap {
+        Segment segment;
+        std::array<std::uint32_t, 3> lower;
+        std::array<std::uint32_t, 3> upper;
+    };
+    std::vector<Overlap> overlaps_;
+    void share_overlap_points();  ///< constrained edges split by the triangulation (a bug)
+};
+
+Point to_point(Vec2 p) {
+    return Point(p.x, p.y);
+}
+
+Vec2 to_vec(const Point& p) {
+    return {CGAL::to_double(p.x()), CGAL::to_double(p.y())};
+}
+
+void LabelSurface::collect_contours() {
+    const std::size_t slices = contours_.slices.size();
+    label_contours_.assign(slices, {});
+    region_count_.assign(slices, 0);
+    for (std::size_t k = 0; k < slices; ++k) {
+        const SliceContourSet& set = contours_.slices[k];
+        for (std::uint32_t c = 0; c < set.contours.size(); ++c) {
+            if (set.contours[c].label == label_) {
+                label_contours_[k].push_back(c);
+            }
+        }
+        for (const SliceLabelRegions& regions : set.labels) {
+            if (regions.label == label_) {
+                region_count_[k] = regions.foreground_count;
+            }
+        }
+    }
+}
+
+void LabelSurface::collect_links() {
+    const std::size_t slices = contours_.slices.size();
+    linked_up_.assign(slices, {});
+    linked_down_.assign(slices, {});
+    for (std::size_t k = 0; k < slices; ++k) {
+        linked_up_[k].assign(region_count_[k], false);
+        linked_down_[k].assign(region_count_[k], false);
+    }
+    link_pieces_.assign(slices, {});
+    background_links_.assign(slices, {});
+    for (const RegionLink& link : contours_.links) {
+        if (link.label == label_ && link.is_background) {
+            auto lower = link.lower_regions;
+            auto upper = link.upper_regions;
+            std::sort(lower.begin(), lower.end());
+            std::sort(upper.begin(), upper.end());
+            background_links_[link.lower_slice].emplace_back(lower, upper);
+        }
+    }
+    for (auto& links : background_links_) {
+        std::sort(links.begin(), links.end());
+    }
+    for (const RegionLink& link : contours_.links) {
+        if (link.label != label_ || link.is_background || link.lower_regions.empty() ||
+            link.upper_regions.empty()) {
+            continue;
+        }
+        const std::uint32_t k = link.lower_slice;
+        const std::uint32_t a = link.lower_regions.front();
+        const std::uint32_t b = link.upper_regions.front();
+        linked_up_[k][a] = true;
+        linked_down_[k + 1][b] = true;
+        ++link_pieces_[k][{a, b}];
+    }
+}
+
+/// Exact crossings, touches and overlaps between the contours of slices k and k+1: every such
+/// point is added to the edges it lies on, so both slabs and caps share it.
+void LabelSurface::find_crossings(std::uint32_t k) {
+    using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 2, std::array<std::uint32_t, 3>>;
+    std::array<std::vector<Box>, 2> boxes;
+    std::array<std::vector<Segment>, 2> segments;
+    for (int side = 0; side < 2; ++side) {
+        const std::uint32_t slice = k + side;
+        const std::vector<Contour>& all = contours_.slices[slice].contours;
+        for (std::uint32_t local = 0; local < label_contours_[slice].size(); ++local) {
+            const Contour& c = all[label_contours_[slice][local]];
+            const std::size_t n = c.simplified.size();
+            for (std::uint32_t e = 0; e < n; ++e) {
+                const Vec2 a = c.points[c.simplified[e]];
+                const Vec2 b = c.points[c.simplified[(e + 1) % n]];
+                double lo[2] = {std::min(a.x, b.x), std::min(a.y, b.y)};
+                double hi[2] = {std::max(a.x, b.x), std::max(a.y, b.y)};
+                boxes[side].emplace_back(
+                    lo, hi,
+                    std::array<std::uint32_t, 3>{local, e, std::uint32_t(segments[side].size())});
+                segments[side].push_back(Segment(to_point(a), to_point(b)));
+            }
+        }
+    }
+    if (boxes[0].empty() || boxes[1].empty()) {
+        return;
+    }
+    std::vector<std::pair<std::array<std::uint32_t, 3>, std::array<std::uint32_t, 3>>> pairs;
+    CGAL::box_intersection_d(
+        boxes[0].begin(), boxes[0].end(), boxes[1].begin(), boxes[1].end(),
+        [&](const Box& a, const Box& b) { pairs.emplace_back(a.info(), b.info()); },
+        std::ptrdiff_t(10), CGAL::Box_intersection_d::CLOSED);
+    std::sort(pairs.begin(), pairs.end());  // deterministic order
+    for (const auto& [a, b] : pairs) {
+        const Segment& sa = segments[0][a[2]];
+        const Segment& sb = segments[1][b[2]];
+        const auto hit = CGAL::intersection(sa, sb);
+        if (!hit) {
+            continue;
+        }
+        std::vector<Point> points;
+        if (const Point* p = boost::get<Point>(&*hit)) {
+            points.push_back(*p);
+        } else if (const Segment* s = boost::get<Segment>(&*hit)) {
+            points.push_back(s->source());
+            points.push_back(s->target());
+            overlaps_.push_back({*s, {k, a[0], a[1]}, {k + 1, b[0], b[1]}});
+        }
+        for (const Point& p : points) {
+            splits_[k][a[0]][a[1]].push_back(p);
+            splits_[k + 1][b[0]][b[1]].push_back(p);
+        }
+    }
+}
+
+/// Points on overlapping collinear edges of neighbouring slices are shared both ways, to a fixed
+/// point (an edge may overlap edges of both neighbouring slices).
+void LabelSurface::share_overlap_points() {
+    auto list = [&](const std::array<std::uint32_t, 3>& e) -> std::vector<Point>& {
+        return splits_[e[0]][e[1]][e[2]];
+    };
+    auto endpoints = [&](const std::array<std::uint32_t, 3>& e) {
+        const Contour& c = contours_.slices[e[0]].contours[label_contours_[e[0]][e[1]]];
+        const std::size_t n = c.simplified.size();
+        return std::array<Point, 2>{to_point(c.points[c.simplified[e[2]]]),
+                                    to_point(c.points[c.simplified[(e[2] + 1) % n]])};
+    };
+    bool changed = true;
+    while (changed) {
+        changed = false;
+        for (const Overlap& o : overlaps_) {
+            for (int dir = 0; dir < 2; ++dir) {
+                const auto& from = dir == 0 ? o.lower : o.upper;
+                const auto& to = dir == 0 ? o.upper : o.lower;
+                std::vector<Point> candidates = list(from);
+                for (const Point& p : endpoints(from)) {
+                    candidates.push_back(p);
+                }
+                for (const Point& p : candidates) {
+                    if (!o.segment.has_on(p)) {
+                        continue;
+                    }
+                    std::vector<Point>& target = list(to);
+                    if (std::find(target.begin(), target.end(), p) == target.end()) {
+                        target.push_back(p);
+                        changed = true;
+                    }
+                }
+            }
+        }
+    }
+}
+
+void LabelSurface::build_rings() {
+    const std::size_t slices = contours_.slices.size();
+    rings_.assign(slices, {});
+    for (std::uint32_t k = 0; k < slices; ++k) {
+        const std::vector<Contour>& all = contours_.slices[k].contours;
+        for (std::uint32_t local = 0; local < label_contours_[k].size(); ++local) {
+            const Contour& c = all[label_contours_[k][local]];
+            Ring ring;
+            const std::size_t n = c.simplified.size();
+            for (std::uint32_t e = 0; e < n; ++e) {
+                const Point a = to_point(c.points[c.simplified[e]]);
+                const Point b = to_point(c.points[c.simplified[(e + 1) % n]]);
+                ring.points.push_back(a);
+                std::vector<Point>& extra = splits_[k][local][e];
+                std::sort(extra.begin(), extra.end(), [&](const Point& p, const Point& q) {
+                    return CGAL::compare_distance_to_point(a, p, q) == CGAL::SMALLER;
+                });
+                for (const Point& p : extra) {
+                    if (p != a && p != b && p != ring.points.back()) {
+                        ring.points.push_back(p);
+                    }
+                }
+            }
+            for (const Point& p : ring.points) {
+                ring.ids.push_back(add_vertex(to_vec(p), slice_z(k)));
+            }
+            rings_[k].push_back(std::move(ring));
+        }
+    }
+}
+
+void LabelSurface::insert_rings(Cdt& cdt,
+                                std::uint32_t slice,
+                                bool upper,
+                                std::map<EdgeKey, EdgeOwner>& owners) {
+    for (std::uint32_t local = 0; local < rings_[slice].size(); ++local) {
+        const Ring& ring = rings_[slice][local];
+        std::vector<VertexHandle> handles;
+        handles.reserve(ring.points.size());
+        for (std::size_t i = 0; i < ring.points.size(); ++i) {
+            VertexHandle v = cdt.insert(ring.points[i]);
+            (upper ? v->info().upper : v->info().lower) = std::int32_t(ring.ids[i]);
+            handles.push_back(v);
+        }
+        for (std::size_t i = 0; i < handles.size(); ++i) {
+            VertexHandle a = handles[i];
+            VertexHandle b = handles[(i + 1) % handles.size()];
+            cdt.insert_constraint(a, b);
+            EdgeOwner& owner = owners[edge_key(a, b)];
+            (upper ? owner.upper : owner.lower) = std::int32_t(local);
+        }
+    }
+}
+
+/// Labels every face with the region of slice k and of slice k+1 it lies in, by walking from the
+/// infinite face and toggling the region across each contour edge.
+void LabelSurface::flood_regions(Cdt& cdt,
+                                 std::uint32_t k,
+                                 const std::map<EdgeKey, EdgeOwner>& owners) {
+    for (FaceHandle f : cdt.all_face_handles()) {
+        f->info() = FaceInfo{};
+    }
+    std::deque<FaceHandle> queue;
+    FaceHandle start = cdt.infinite_face();
+    start->info().seen = true;
+    queue.push_back(start);
+    while (!queue.empty()) {
+        const FaceHandle f = queue.front();
+        queue.pop_front();
+        for (int i = 0; i < 3; ++i) {
+            const FaceHandle n = f->neighbor(i);
+            if (n->info().seen) {
+                continue;
+            }
+            FaceInfo state;
+            state.lower_region = f->info().lower_region;
+            state.upper_region = f->info().upper_region;
+            state.lower_background = f->info().lower_background;
+            state.upper_background = f->info().upper_background;
+            if (cdt.is_constrained({f, i})) {
+                const auto it = owners.find(edge_key(f->vertex(ccw(i)), f->vertex(cw(i))));
+                if (it == owners.end()) {
+                    ++unowned_edges_;
+                }
+                if (it != owners.end()) {
+                    if (it->second.lower >= 0) {
+                        const auto c = std::uint32_t(it->second.lower);
+                        const auto r = std::int32_t(owner_region(k, c));
+                        state.lower_region = state.lower_region == r ? -1 : r;
+                        state.lower_background = background_beside(k, c);
+                    }
+                    if (it->second.upper >= 0) {
+                        const auto c = std::uint32_t(it->second.upper);
+                        const auto r = std::int32_t(owner_region(k + 1, c));
+                        state.upper_region = state.upper_region == r ? -1 : r;
+                        state.upper_background = background_beside(k + 1, c);
+                    }
+                }
+            }
+            state.seen = true;
+            n->info() = state;
+            queue.push_back(n);
+        }
+    }
+}
+
+/// The surface joins regions a (slice k) and b (slice k+1) once per connected piece of their
+/// polygons' overlap; the reference joins them once per piece of their pixels' overlap. Reports
+/// slabs where the two disagree.
+void LabelSurface::check_overlap_topology(Cdt& cdt, std::uint32_t k) {
+    std::map<const void*, std::size_t> index;
+    std::vector<FaceHandle> faces;
+    for (FaceHandle f : cdt.finite_face_handles()) {
+        if (f->info().lower_region >= 0 && f->info().upper_region >= 0) {
+            index.emplace(&*f, faces.size());
+            faces.push_back(f);
+        }
+    }
+    DisjointSets sets(faces.size());
+    for (std::size_t i = 0; i < faces.size(); ++i) {
+        for (int j = 0; j < 3; ++j) {
+            const FaceHandle n = faces[i]->neighbor(j);
+            const auto it = index.find(&*n);
+            if (it != index.end() && n->info().lower_region == faces[i]->info().lower_region &&
+                n->info().upper_region == faces[i]->info().upper_region) {
+                sets.join(i, it->second);
+            }
+        }
+    }
+    // Overlap pieces that touch at a contour point also join when the surface does not pass
+    // through the vertical segment above it (no crossing wedge, no wall there): the solid is
+    // connected around that segment, as the pixels are across a diagonal.
+    for (VertexHandle v : cdt.finite_vertex_handles()) {
+        if (v->info().lower < 0 || v->info().upper < 0) {
+            continue;
+        }
+        std::vector<FaceHandle> around;
+        Cdt::Face_circulator fc = cdt.incident_faces(v);
+        const Cdt::Face_circulator done = fc;
+        do {
+            around.push_back(fc);
+        } while (++fc != done);
+        const std::size_t n = around.size();
+        bool vertical = false;
+        // Boundary edge between around[j] and around[j + 1], or kUnset when not a boundary.
+        std::vector<Level> edge_class(n, kUnset);
+        std::vector<Level> edge_class_next(n, kUnset);
+        for (std::size_t j = 0; j < n; ++j) {
+            const FaceHandle f = around[j];
+            const FaceHandle g = around[(j + 1) % n];
+            if (cdt.is_infinite(f) || cdt.is_infinite(g)) {
+                continue;
+            }
+            const int e = f->index(g);
+            const bool f_both = in_lower(f->info(), k) && in_upper(f->info(), k);
+            const bool g_both = in_lower(g->info(), k) && in_upper(g->info(), k);
+            const bool f_none = !in_lower(f->info(), k) && !in_upper(f->info(), k);
+            const bool g_none = !in_lower(g->info(), k) && !in_upper(g->info(), k);
+            if ((f_both && g_none) || (f_none && g_both)) {
+                vertical = true;  // a wall
+            }
+            if (is_boundary(f, e, k)) {
+                edge_class[j] = in_surface(f, k) ? boundary_class(f, e, k) : kUnset;
+                edge_class_next[j] = in_surface(g, k) ? boundary_class(g, g->index(f), k) : kUnset;
+            }
+        }
+        // A run of surface faces between two boundary edges with different classes crosses.
+        for (std::size_t j = 0; j < n && !vertical; ++j) {
+            if (edge_class_next[j] == kUnset) {
+                continue;  // no surface run starts after edge j
+            }
+            const Level start = edge_class_next[j];
+            for (std::size_t m = 1; m <= n; ++m) {
+                const std::size_t e = (j + m) % n;
+                if (edge_class[e] != kUnset ||
+                    is_boundary(around[e], around[e]->index(around[(e + 1) % n]), k)) {
+                    vertical = edge_class[e] != start;
+                    break;
+                }
+            }
+        }
+        if (vertical) {
+            continue;
+        }
+        std::size_t first = faces.size();
+        for (const FaceHandle f : around) {
+            const auto it = index.find(&*f);
+            if (it == index.end()) {
+                continue;
+            }
+            if (first == faces.size()) {
+                first = it->second;
+            } else if (faces[first]->info().lower_region == f->info().lower_region &&
+                       faces[first]->info().upper_region == f->info().upper_region) {
+                sets.join(first, it->second);
+            }
+        }
+    }
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> pieces;
+    std::vector<bool> counted(faces.size(), false);
+    for (std::size_t i = 0; i < faces.size(); ++i) {
+        const std::size_t root = sets.find(i);
+        if (!counted[root]) {
+            counted[root] = true;
+            ++pieces[{std::uint32_t(faces[i]->info().lower_region),
+                      std::uint32_t(faces[i]->info().upper_region)}];
+        }
+    }
+    // Background: the pieces of the complement of the overlap (4-connected: across edges only)
+    // that touch a hole of either slice, each with the background components it touches.
+    std::map<const void*, std::size_t> bg_index;
+    std::vector<FaceHandle> bg_faces;
+    for (FaceHandle f : cdt.all_face_handles()) {
+        if (f->info().lower_region < 0 || f->info().upper_region < 0) {
+            bg_index.emplace(&*f, bg_faces.size());
+            bg_faces.push_back(f);
+        }
+    }
+    DisjointSets bg_sets(bg_faces.size());
+    for (std::size_t i = 0; i < bg_faces.size(); ++i) {
+        for (int j = 0; j < 3; ++j) {
+            const auto it = bg_index.find(&*bg_faces[i]->neighbor(j));
+            if (it != bg_index.end()) {
+                bg_sets.join(i, it->second);
+            }
+        }
+    }
+    std::map<std::size_t, std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>> touch;
+    for (std::size_t i = 0; i < bg_faces.size(); ++i) {
+        auto& [lower, upper] = touch[bg_sets.find(i)];
+        const FaceInfo& info = bg_faces[i]->info();
+        if (info.lower_region < 0) {
+            lower.push_back(info.lower_background);
+        }
+        if (info.upper_region < 0) {
+            upper.push_back(info.upper_background);
+        }
+    }
+    std::vector<std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>> polygon_bg;
+    for (auto& [root, touched] : touch) {
+        for (auto* v : {&touched.first, &touched.second}) {
+            std::sort(v->begin(), v->end());
+            v->erase(std::unique(v->begin(), v->end()), v->end());
+        }
+        const bool hole = std::any_of(touched.first.begin(), touched.first.end(),
+                                      [](std::uint32_t b) { return b != 0; }) ||
+                          std::any_of(touched.second.begin(), touched.second.end(),
+                                      [](std::uint32_t b) { return b != 0; });
+        if (hole) {
+            polygon_bg.push_back(touched);
+        }
+    }
+    std::sort(polygon_bg.begin(), polygon_bg.end());
+    if (polygon_bg != background_links_[k]) {
+        ++surface_.topology_mismatches;
+        mismatched_slabs_.push_back(k);
+        issue(k, "contours overlap unlike the pixels: " + std::to_string(polygon_bg.size()) +
+                     " background connection(s) through holes, pixels " +
+                     std::to_string(background_links_[k].size()));
+        return;
+    }
+    if (pieces != link_pieces_[k]) {
+        std::size_t differ = 0;
+        std::string example;
+        auto note = [&](std::pair<std::uint32_t, std::uint32_t> pair, std::uint32_t polygons,
+                        std::uint32_t pixels) {
+            if (differ++ == 0) {
+                example = ", e.g. regions " + std::to_string(pair.first) + " and " +
+                          std::to_string(pair.second) + ": " + std::to_string(polygons) +
+                          " polygon overlap(s), " + std::to_string(pixels) + " pixel overlap(s)";
+            }
+        };
+        for (const auto& [pair, count] : pieces) {
+            const auto it = link_pieces_[k].find(pair);
+            const std::uint32_t pixels = it == link_pieces_[k].end() ? 0 : it->second;
+            if (pixels != count) {
+                note(pair, count, pixels);
+            }
+        }
+        for (const auto& [pair, count] : link_pieces_[k]) {
+            if (pieces.find(pair) == pieces.end()) {
+                note(pair, 0, count);
+            }
+        }
+        ++surface_.topology_mismatches;
+        mismatched_slabs_.push_back(k);
+        issue(k, "contours overlap unlike the pixels for " + std::to_string(differ) +
+                     " region pair(s)" + example);
+    }
+}
+
+bool LabelSurface::in_lower(const FaceInfo& f, std::uint32_t k) const {
+    return f.lower_region >= 0 && linked_up_[k][std::size_t(f.lower_region)];
+}
+
+bool LabelSurface::in_upper(const FaceInfo& f, std::uint32_t k) const {
+    return f.upper_region >= 0 && linked_down_[k + 1][std::size_t(f.upper_region)];
+}
+
+bool LabelSurface::in_surface(FaceHandle f, std::uint32_t k) const {
+    return in_lower(f->info(), k) != in_upper(f->info(), k);
+}
+
+bool LabelSurface::is_boundary(FaceHandle f, int i, std::uint32_t k) const {
+    const FaceHandle n = f->neighbor(i);
+    return in_lower(f->info(), k) != in_lower(n->info(), k) ||
+           in_upper(f->info(), k) != in_upper(n->info(), k);
+}
+
+/// Level of the boundary edge opposite vertex i of the surface face f: on slice k's contour
+/// (low), on slice k+1's (high); where both contours run along the edge, the face's own side.
+Level LabelSurface::boundary_class(FaceHandle f, int i, std::uint32_t k) const {
+    const FaceHandle n = f->neighbor(i);
+    const bool lower_changes = in_lower(f->info(), k) != in_lower(n->info(), k);
+    const bool upper_changes = in_upper(f->info(), k) != in_upper(n->info(), k);
+    if (lower_changes && upper_changes) {
+        return in_lower(f->info(), k) ? kLow : kHigh;
+    }
+    return lower_changes ? kLow : kHigh;
+}
+
+double LabelSurface::height_t(const Point& p, std::uint32_t k) const {
+    const Vec2 q = to_vec(p);
+    auto sample = [&](const DistanceField* f) -> double {
+        if (f == nullptr) {
+            return 1e9;
+        }
+        const double u = (q.x - f->origin_x) / DistanceField::kCellPx;
+        const double v = (q.y - f->origin_y) / DistanceField::kCellPx;
+        if (!(u >= 0.0 && v >= 0.0 && u <= f->nx - 1.0 && v <= f->ny - 1.0)) {
+            return f->outside_window_px;
+        }
+        const auto i = std::min<std::uint32_t>(std::uint32_t(u), f->nx - 2);
+        const auto j = std::min<std::uint32_t>(std::uint32_t(v), f->ny - 2);
+        const double fu = u - i;
+        const double fv = v - j;
+        return (1 - fu) * (1 - fv) * f->at(i, j) + fu * (1 - fv) * f->at(i + 1, j) +
+               (1 - fu) * fv * f->at(i, j + 1) + fu * fv * f->at(i + 1, j + 1);
+    };
+    const double a = sample(field(k));
+    const double b = sample(field(k + 1));
+    double t = 0.5;
+    if (std::abs(a - b) > 1e-12) {
+        t = a / (a - b);
+    }
+    return std::clamp(t, 0.05, 0.95);
+}
+
+VertexHandle LabelSurface::insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k) {
+    VertexHandle v = cdt.insert(p);
+    if (v->info().steiner < 0 && v->info().lower < 0 && v->info().upper < 0) {
+        v->info().steiner = std::int32_t(steiner_t_.size());
+        steiner_t_.push_back(height_t(p, k));
+        steiner_id_.push_back(-1);
+        steiner_xy_.push_back(to_vec(p));
+    }
+    return v;
+}
+
+/// Walks the faces of the surface around vertex i of f in both directions to the boundary
+/// edges; equal classes give the level directly. A wedge between a low and a high edge (where
+/// contours cross) is split at an edge to a Steiner point: faces on the low side use the
+/// vertex at z_k, the rest at z_k+1 (the vertical triangle between them is added on output).
+bool LabelSurface::resolve_corner(
+    Cdt& cdt, FaceHandle f, int i, std::uint32_t k, std::vector<Point>& refine) {
+    const VertexHandle v = f->vertex(i);
+    if (v->info().steiner >= 0) {
+        f->info().corner[std::size_t(i)] = kBetween;
+        return true;
+    }
+    // Walk clockwise (across the edge (v, vertex(ccw))) to the first boundary edge, collecting
+    // faces; then counter-clockwise.
+    // Walks from f around v to the first boundary edge, collecting the faces passed; `found`
+    // stays kUnset when the walk comes back to f. False on an infinite face (inconsistent
+    // regions: the slab fails).
+    auto walk = [&](bool clockwise, std::vector<FaceHandle>& passed, Level& found) {
+        FaceHandle cur = f;
+        int ci = i;
+        for (;;) {
+            const int e = clockwise ? cw(ci) : ccw(ci);  // edge (v, next vertex that way)
+            if (is_boundary(cur, e, k)) {
+                found = boundary_class(cur, e, k);
+                return true;
+            }
+            cur = cur->neighbor(e);
+            if (cdt.is_infinite(cur)) {
+                return false;
+            }
+            if (cur == f) {
+                return true;
+            }
+            ci = cur->index(v);
+            passed.push_back(cur);
+        }
+    };
+    std::vector<FaceHandle> cw_faces{f};
+    std::vector<FaceHandle> ccw_faces;
+    Level cw_class = kUnset;
+    Level ccw_class = kUnset;
+    if (!walk(true, cw_faces, cw_class)) {
+        return false;
+    }
+    if (cw_class == kUnset) {
+        // No boundary around v: a contour point inside the surface's domain (only where
+        // unlinked contours lie inside it). Lift it like a Steiner point.
+        v->info().steiner = std::int32_t(steiner_t_.size());
+        steiner_t_.push_back(height_t(v->point(), k));
+        steiner_id_.push_back(-1);
+        steiner_xy_.push_back(to_vec(v->point()));
+        f->info().corner[std::size_t(i)] = kBetween;
+        return true;
+    }
+    if (!walk(false, ccw_faces, ccw_class)) {
+        return false;
+    }
+    // Wedge in order from the clockwise boundary to the counter-clockwise one.
+    std::vector<FaceHandle> wedge(cw_faces.rbegin(), cw_faces.rend());
+    wedge.insert(wedge.end(), ccw_faces.begin(), ccw_faces.end());
+    if (cw_class == ccw_class) {
+        for (FaceHandle w : wedge) {
+            w->info().corner[std::size_t(w->index(v))] = cw_class;
+        }
+        return true;
+    }
+    // Mixed: find an inner edge (v, u) with u a Steiner point, nearest the low side.
+    const bool low_first = cw_class == kLow;
+    if (!low_first) {
+        std::reverse(wedge.begin(), wedge.end());
+    }
+    // wedge[0] touches the low boundary edge. Inner edge j lies between wedge[j] and
+    // wedge[j + 1]; its far vertex is shared by both.
+    std::size_t split = wedge.size();
+    for (std::size_t j = 0; j + 1 < wedge.size(); ++j) {
+        const FaceHandle a = wedge[j];
+        const FaceHandle b = wedge[j + 1];
+        for (int m = 0; m < 3; ++m) {
+            const VertexHandle u = a->vertex(m);
+            if (u != v && b->has_vertex(u) && u->info().steiner >= 0) {
+                split = j;
+                break;
+            }
+        }
+        if (split != wedge.size()) {
+            break;
+        }
+    }
+    if (split == wedge.size()) {
+        const FaceHandle mid = wedge[wedge.size() / 2];
+        refine.push_back(CGAL::centroid(cdt.triangle(mid)));
+        return false;
+    }
+    for (std::size_t j = 0; j < wedge.size(); ++j) {
+        wedge[j]->info().corner[std::size_t(wedge[j]->index(v))] = j <= split ? kLow : kHigh;
+    }
+    return true;
+}
+
+void LabelSurface::triangulate_slab(std::uint32_t k) {
+    Cdt cdt;
+    std::map<EdgeKey, EdgeOwner> owners;
+    insert_rings(cdt, k, false, owners);
+    insert_rings(cdt, k + 1, true, owners);
+    flood_regions(cdt, k, owners);
+    if (unowned_edges_ != 0) {
+        ++surface_.failed_slabs;
+        issue(k, std::to_string(unowned_edges_) + " contour edges cross unexpectedly");
+        unowned_edges_ = 0;
+    }
+    check_overlap_topology(cdt, k);
+
+    steiner_t_.clear();
+    steiner_id_.clear();
+    steiner_xy_.clear();
+
+    // The medial axis: the paper's correspondence curve, at t = 1/2 between the slices.
+    std::vector<Point> medial;
+    if (k < medial_axes_.size()) {
+        for (const MedialCurve& curve : medial_axes_[k].curves) {
+            if (curve.label != label_) {
+                continue;
+            }
+            double run = options_.medial_step_px;
+            for (std::size_t i = 0; i < curve.points.size(); ++i) {
+                if (i > 0) {
+                    const Vec2 d = curve.points[i].position - curve.points[i - 1].position;
+                    run += std::sqrt(dot(d, d));
+                }
+                if (run < options_.medial_step_px) {
+                    continue;
+                }
+                run = 0.0;
+                const Point p = to_point(curve.points[i].position);
+                Cdt::Locate_type type;
+                int li = 0;
+                const FaceHandle f = cdt.locate(p, type, li);
+                if (type == Cdt::FACE && in_surface(f, k)) {
+                    medial.push_back(p);
+                }
+            }
+        }
+    }
+    for (const Point& p : medial) {
+        insert_steiner(cdt, p, k);
+    }
+    if (!medial.empty()) {
+        flood_regions(cdt, k, owners);
+        if (unowned_edges_ != 0) {
+            issue(k, "medial points split " + std::to_string(unowned_edges_) + " edges");
+            unowned_edges_ = 0;
+        }
+    }
+
+    // Refine until every surface face has its levels and no inner edge lies in a slice plane.
+    bool valid = false;
+    for (unsigned round = 0; round <= options_.refine_rounds; ++round) {
+        std::vector<Point> refine;
+        std::vector<FaceHandle> faces;
+        for (FaceHandle f : cdt.finite_face_handles()) {
+            f->info().corner = {kUnset, kUnset, kUnset};
+            if (in_surface(f, k)) {
+                faces.push_back(f);
+            }
+        }
+        bool complete = true;
+        for (FaceHandle f : faces) {
+            for (int i = 0; i < 3; ++i) {
+                if (f->info().corner[std::size_t(i)] == kUnset &&
+                    !resolve_corner(cdt, f, i, k, refine)) {
+                    complete = false;
+                }
+            }
+        }
+        if (complete) {
+            for (FaceHandle f : faces) {
+                const std::array<Level, 3>& c = f->info().corner;
+                if (c[0] != kBetween && c[0] == c[1] && c[1] == c[2]) {
+                    refine.push_back(CGAL::centroid(cdt.triangle(f)));
+                    continue;
+                }
+                for (int i = 0; i < 3; ++i) {
+                    const Level a = c[std::size_t(ccw(i))];
+                    const Level b = c[std::size_t(cw(i))];
+                    if (a != kBetween && a == b && !is_boundary(f, i, k) &&
+                        !cdt.is_constrained({f, i})) {
+                        const FaceHandle n = f->neighbor(i);
+                        if (&*f < &*n || !in_surface(n, k)) {
+                            refine.push_back(CGAL::midpoint(f->vertex(ccw(i))->point(),
+                                                            f->vertex(cw(i))->point()));
+                        }
+                    }
+                }
+            }
+        }
+        if (refine.empty() && complete) {
+            valid = true;
+            break;
+        }
+        if (round == options_.refine_rounds) {
+            break;
+        }
+        std::sort(refine.begin(), refine.end());
+        refine.erase(std::unique(refine.begin(), refine.end()), refine.end());
+        for (const Point& p : refine) {
+            insert_steiner(cdt, p, k);
+        }
+        flood_regions(cdt, k, owners);
+        if (unowned_edges_ != 0) {
+            issue(k, "refinement split " + std::to_string(unowned_edges_) + " edges");
+            unowned_edges_ = 0;
+        }
+    }
+    if (!valid) {
+        ++surface_.failed_slabs;
+        issue(k, "refinement did not converge in " + std::to_string(options_.refine_rounds) +
+                     " rounds");
+    }
+
+    // Output.
+    const double z0 = slice_z(k);
+    const double d = options_.slice_spacing_px;
+    auto corner_id = [&](FaceHandle f, int i) -> std::int32_t {
+        const VertexHandle v = f->vertex(i);
+        switch (f->info().corner[std::size_t(i)]) {
+            case kLow:
+                return v->info().lower;
+            case kHigh:
+                return v->info().upper;
+            case kBetween: {
+                const auto s = std::size_t(v->info().steiner);
+                if (steiner_id_[s] < 0) {
+                    steiner_id_[s] =
+                        std::int32_t(add_vertex(steiner_xy_[s], z0 + steiner_t_[s] * d));
+                    ++surface_.steiner_points;
+                }
+                return steiner_id_[s];
+            }
+            default:
+                return -1;
+        }
+    };
+    std::vector<std::array<std::uint32_t, 3>>& out = surface_.mesh.triangles;
+    bool missing = false;
+    std::map<const void*, std::array<std::uint32_t, 3>> emitted;
+    for (FaceHandle f : cdt.finite_face_handles()) {
+        if (!in_surface(f, k)) {
+            continue;
+        }
+        std::array<std::int32_t, 3> ids{corner_id(f, 0), corner_id(f, 1), corner_id(f, 2)};
+        if (ids[0] < 0 || ids[1] < 0 || ids[2] < 0) {
+            missing = true;
+            continue;
+        }
+        std::array<std::uint32_t, 3> t{std::uint32_t(ids[0]), std::uint32_t(ids[1]),
+                                       std::uint32_t(ids[2])};
+        if (!in_lower(f->info(), k)) {
+            std::swap(t[1], t[2]);  // below the graph is outside: face down
+        }
+        out.push_back(t);
+        emitted.emplace(&*f, t);
+    }
+    // Vertical triangles where a wedge switches from z_k to z_k+1, and vertical walls where
+    // both contours run along the same edge with the inside on the same side.
+    for (FaceHandle f : cdt.finite_face_handles()) {
+        if (in_surface(f, k)) {
+            for (int i = 0; i < 3; ++i) {
+                // Inner edge opposite i, between corner levels low (here) and high (neighbour).
+                const FaceHandle n = f->neighbor(i);
+                if (is_boundary(f, i, k) || !in_surface(n, k)) {
+                    continue;
+                }
+                for (int side = 0; side < 2; ++side) {
+                    const int vi = side == 0 ? ccw(i) : cw(i);
+                    const VertexHandle v = f->vertex(vi);
+                    const VertexHandle u = f->vertex(side == 0 ? cw(i) : ccw(i));
+                    if (f->info().corner[std::size_t(vi)] != kLow ||
+                        n->info().corner[std::size_t(n->index(v))] != kHigh ||
+                        u->info().steiner < 0) {
+                        continue;
+                    }
+                    const auto it = emitted.find(&*f);
+                    if (it == emitted.end()) {
+                        continue;
+                    }
+                    if (v->info().lower < 0 || v->info().upper < 0 ||
+                        steiner_id_[std::size_t(u->info().steiner)] < 0) {
+                        missing = true;
+                        continue;
+                    }
+                    const auto lo = std::uint32_t(v->info().lower);
+                    const auto hi = std::uint32_t(v->info().upper);
+                    const auto us = std::uint32_t(steiner_id_[std::size_t(u->info().steiner)]);
+                    const std::array<std::uint32_t, 3>& t = it->second;
+                    bool forward = false;  // does t contain the directed edge lo -> us?
+                    for (int m = 0; m < 3; ++m) {
+                        if (t[std::size_t(m)] == lo && t[std::size_t((m + 1) % 3)] == us) {
+                            forward = true;
+                        }
+                    }
+                    if (forward) {
+                        out.push_back({us, lo, hi});
+                    } else {
+                        out.push_back({lo, us, hi});
+                    }
+                }
+            }
+        }
+        const bool inside_both = in_lower(f->info(), k) && in_upper(f->info(), k);
+        if (!inside_both) {
+            continue;
+        }
+        for (int i = 0; i < 3; ++i) {
+            const FaceHandle n = f->neighbor(i);
+            if (in_lower(n->info(), k) || in_upper(n->info(), k)) {
+                continue;
+            }
+            // f lies left of p -> q; the wall faces right, outward.
+            const VertexHandle p = f->vertex(ccw(i));
+            const VertexHandle q = f->vertex(cw(i));
+            if (p->info().lower < 0 || p->info().upper < 0 || q->info().lower < 0 ||
+                q->info().upper < 0) {
+                missing = true;
+                continue;
+            }
+            const auto pl = std::uint32_t(p->info().lower);
+            const auto ph = std::uint32_t(p->info().upper);
+            const auto ql = std::uint32_t(q->info().lower);
+            const auto qh = std::uint32_t(q->info().upper);
+            out.push_back({pl, ql, qh});
+            out.push_back({pl, qh, ph});
+        }
+    }
+    if (missing && valid) {
+        ++surface_.failed_slabs;
+        issue(k, "a surface vertex has no position on the slice it lies on");
+    }
+    ++surface_.slabs;
+}
+
+/// Closes region `region` of slice k by planar caps: on top (normal +z) when it has no partner
+/// above, below when none below; alone on its slice it becomes a slab of thickness d/2.
+void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, bool bottom) {
+    Cdt cdt;
+    std::vector<std::uint32_t> locals;
+    for (std::uint32_t local = 0; local < rings_[k].size(); ++local) {
+        if (owner_region(k, local) == region) {
+            locals.push_back(local);
+        }
+    }
+    std::map<EdgeKey, EdgeOwner> owners;
+    for (std::uint32_t local : locals) {
+        const Ring& ring = rings_[k][local];
+        std::vector<VertexHandle> handles;
+        for (std::size_t i = 0; i < ring.points.size(); ++i) {
+            VertexHandle v = cdt.insert(ring.points[i]);
+            v->info().lower = std::int32_t(ring.ids[i]);
+            handles.push_back(v);
+        }
+        for (std::size_t i = 0; i < handles.size(); ++i) {
+            cdt.insert_constraint(handles[i], handles[(i + 1) % handles.size()]);
+            owners[edge_key(handles[i], handles[(i + 1) % handles.size()])].lower =
+                std::int32_t(local);
+        }
+    }
+    flood_regions(cdt, k, owners);  // inside the region: lower_region >= 0
+    std::vector<std::array<std::uint32_t, 3>>& out = surface_.mesh.triangles;
+    const bool slab = top && bottom;
+    std::map<std::uint32_t, std::array<std::uint32_t, 2>> lifted;  // ring id -> (below, above)
+    auto lift = [&](std::uint32_t id) {
+        auto it = lifted.find(id);
+        if (it == lifted.end()) {
+            const Vec3 p = surface_.mesh.positions[id];
+            const double q = options_.slice_spacing_px / 4.0;
+            const std::uint32_t below = add_vertex({p.x, p.y}, p.z - q);
+            const std::uint32_t above = add_vertex({p.x, p.y}, p.z + q);
+            it = lifted.emplace(id, std::array<std::uint32_t, 2>{below, above}).first;
+        }
+        return it->second;
+    };
+    for (FaceHandle f : cdt.finite_face_handles()) {
+        if (f->info().lower_region < 0) {
+            continue;
+        }
+        if (f->vertex(0)->info().lower < 0 || f->vertex(1)->info().lower < 0 ||
+            f->vertex(2)->info().lower < 0) {
+            ++surface_.failed_slabs;
+            issue(k, "a cap vertex is not on the contour");
+            continue;
+        }
+        const std::array<std::uint32_t, 3> t{std::uint32_t(f->vertex(0)->info().lower),
+                                             std::uint32_t(f->vertex(1)->info().lower),
+                                             std::uint32_t(f->vertex(2)->info().lower)};
+        if (slab) {
+            out.push_back({lift(t[0])[1], lift(t[1])[1], lift(t[2])[1]});
+            out.push_back({lift(t[0])[0], lift(t[2])[0], lift(t[1])[0]});
+        } else if (top) {
+            out.push_back(t);
+        } else {
+            out.push_back({t[0], t[2], t[1]});
+        }
+    }
+    if (slab) {
+        // Walls: contours keep the region on their left, so outward is to the right.
+        for (std::uint32_t local : locals) {
+            const Ring& ring = rings_[k][local];
+            for (std::size_t i = 0; i < ring.ids.size(); ++i) {
+                const auto p = lift(ring.ids[i]);
+                const auto q = lift(ring.ids[(i + 1) % ring.ids.size()]);
+                out.push_back({p[0], q[0], q[1]});
+                out.push_back({p[0], q[1], p[1]});
+            }
+        }
+        surface_.caps += 2;
+    } else {
+        surface_.caps += 1;
+    }
+}
+
+ObjectSurface LabelSurface::build() {
+    surface_.label = label_;
+    collect_contours();
+    collect_links();
+    const std::size_t slices = contours_.slices.size();
+    splits_.assign(slices, {});
+    for (std::size_t k = 0; k < slices; ++k) {
+        const std::vector<Contour>& all = contours_.slices[k].contours;
+        for (std::uint32_t c : label_contours_[k]) {
+            splits_[k].emplace_back(all[c].simplified.size());
+        }
+    }
+    for (std::uint32_t k = 0; k + 1 < slices; ++k) {
+        if (!label_contours_[k].empty() && !label_contours_[k + 1].empty()) {
+            find_crossings(k);
+        }
+    }
+    share_overlap_points();
+    build_rings();
+    splits_.clear();
+    for (std::uint32_t k = 0; k + 1 < slices; ++k) {
+        if (!link_pieces_[k].empty()) {
+            triangulate_slab(k);
+        }
+    }
+    for (std::uint32_t k = 0; k < slices; ++k) {
+        for (std::uint32_t r = 0; r < region_count_[k]; ++r) {
+            const bool top = !linked_up_[k][r];
+            const bool bottom = !linked_down_[k][r];
+            if (top || bottom) {
+                cap_region(k, r, top, bottom);
+            }
+        }
+    }
+    // Drop ring vertices no triangle uses (contours of single-slice slabs).
+    TriMesh& mesh = surface_.mesh;
+    std::vector<std::int64_t> remap(mesh.positions.size(), -1);
+    for (const auto& t : mesh.triangles) {
+        for (std::uint32_t v : t) {
+            remap[v] = 0;
+        }
+    }
+    std::vector<Vec3> kept;
+    for (std::size_t v = 0; v < remap.size(); ++v) {
+        if (remap[v] == 0) {
+            remap[v] = std::int64_t(kept.size());
+            kept.push_back(mesh.positions[v]);
+        }
+    }
+    mesh.positions = std::move(kept);
+    for (auto& t : mesh.triangles) {
+        for (std::uint32_t& v : t) {
+            v = std::uint32_t(remap[v]);
+        }
+    }
+    std::stable_sort(
+        surface_.issues.begin(), surface_.issues.end(),
+        [](const SlabIssue& a, const SlabIssue& b) { return a.lower_slice < b.lower_slice; });
+    return std::move(surface_);
+}
+
+/// Builds one label's surface. Where simplified contours overlap in another pattern than the
+/// pixels (the surface would get the wrong topology), the label's contours on both slices of
+/// that slab fall back to their original, unsimplified polygons (exactly the pixel boundary,
+/// so the error bound holds trivially) and the label is built again, a few times at most.
+ObjectSurface build_label_surface(const SliceContours& contours,
+                                  const std::vector<SliceDistanceFields>& fields,
+                                  const std::vector<MedialAxis>& medial_axes,
+                                  const TriangulateOptions& options,
+                                  std::uint16_t label) {
+    LabelSurface first(contours, fields, medial_axes, options, label);
+    ObjectSurface surface = first.build();
+    if (first.mismatched_slabs().empty()) {
+        return surface;
+    }
+    SliceContours exact = contours;
+    std::vector<bool> unsimplified(contours.slices.size(), false);
+    std::vector<std::uint32_t> mismatched = first.mismatched_slabs();
+    for (int attempt = 0; attempt < 3 && !mismatched.empty(); ++attempt) {
+        for (std::uint32_t k : mismatched) {
+            for (std::uint32_t slice : {k, k + 1}) {
+                if (unsimplified[slice]) {
+                    continue;
+                }
+                unsimplified[slice] = true;
+                for (Contour& c : exact.slices[slice].contours) {
+                    if (c.label == label) {
+                        c.simplified.resize(c.points.size());
+                        std::iota(c.simplified.begin(), c.simplified.end(), 0u);
+                        c.edge_deviation_px.assign(c.points.size(), 0.0);
+                    }
+                }
+            }
+        }
+        LabelSurface again(exact, fields, medial_axes, options, label);
+        surface = again.build();
+        mismatched = again.mismatched_slabs();
+    }
+    surface.unsimplified_slices =
+        std::uint32_t(std::count(unsimplified.begin(), unsimplified.end(), true));
+    for (std::uint32_t k = 0; k < unsimplified.size(); ++k) {
+        if (unsimplified[k]) {
+            surface.unsimplified.push_back(k);
+        }
+    }
+    return surface;
+}
+
+}  // namespace
+
+std::vector<ObjectSurface> triangulate_surfaces(const SliceContours& contours,
+                                                const std::vector<SliceDistanceFields>& fields,
+                                                const std::vector<MedialAxis>& medial_axes,
+                                                const TriangulateOptions& options) {
+    const std::vector<std::uint16_t> labels = contour_labels(contours);
+    std::vector<ObjectSurface> surfaces(labels.size());
+    std::atomic<std::size_t> done{0};
+    std::mutex progress_mutex;
+    parallel_for(labels.size(), options.threads, [&](std::size_t i) {
+        surfaces[i] = build_label_surface(contours, fields, medial_axes, options, labels[i]);
+        if (options.progress) {
+            const std::lock_guard lock(progress_mutex);
+            options.progress("objects", ++done, labels.size());
+        }
+    });
+    return surfaces;
+}
+
+}  // namespace strata

@@ -1,0 +1,83 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "contours/slice_contours.h"
+#include "core/progress.h"
+#include "distance/distance_field.h"
+#include "medial/medial_axis.h"
+#include "mesh/tri_mesh.h"
+
+namespace strata {
+
+/// Options of the triangulation stage.
+struct TriangulateOptions {
+    double slice_spacing_px = 1.0;  ///< d: slice k lies at z = k * d px
+    /// Medial-axis points closer than this along their curve are thinned before they become
+    /// surface vertices (px).
+    double medial_step_px = 1.0;
+    /// Rounds of local refinement (Steiner points) that remove flat chords and split
+    /// correspondence jumps before a slab is declared failed.
+    unsigned refine_rounds = 12;
+    unsigned threads = 0;  ///< worker threads, 0 = all cores; output identical for any count
+    ProgressFn progress;   ///< called per label (may be empty)
+};
+
+/// Something the triangulation could not do as the semantics ask, for one slab of one label.
+struct SlabIssue {
+    std::uint32_t lower_slice = 0;
+    std::string what;
+};
+
+/// The closed surface of one label, in slice space: x, y in px (contour frame), z = k * d.
+struct ObjectSurface {
+    std::uint16_t label = 0;
+    TriMesh mesh;
+    std::uint32_t slabs = 0;           ///< slice pairs joined by the surface
+    std::uint32_t caps = 0;            ///< planar end caps (a single-slice slab counts two)
+    std::uint32_t steiner_points = 0;  ///< vertices between slices (medial axis + refinement)
+    /// Slabs where the contours still overlap in another pattern than the pixels do after the
+    /// unsimplified fallback (the surface follows the polygons there, so its topology can differ
+    /// from the reference).
+    std::uint32_t topology_mismatches = 0;
+    /// Fallback count: slices whose contours of this label were used unsimplified because the
+    /// simplified ones overlapped their neighbours unlike the pixels.
+    std::uint32_t unsimplified_slices = 0;
+    std::vector<std::uint32_t> unsimplified;  ///< those slices, increasing
+    std::uint32_t failed_slabs = 0;  ///< slabs refinement could not make valid
+    std::vector<SlabIssue> issues;   ///< one per mismatch or failure, sorted by slice
+
+    /// Independent checks of the finished surface (pipeline/reconstruct.h: verify_surface).
+    struct Verification {
+        bool done = false;
+        bool closed_manifold = false;  ///< closed, edge- and vertex-manifold, oriented
+        bool outward = false;          ///< encloses positive volume
+        bool self_intersection_free = false;
+        bool topology_as_reference = false;  ///< components and genus of the reference volume R
+        std::string reference;               ///< R's topology, one line
+        std::string problem;                 ///< first failed check, empty when all pass
+        bool ok() const { return done && problem.empty(); }
+    } verification;
+};
+
+/// Triangulates every label of the stack (paper section 5) into one closed surface each.
+///
+/// Between slices k and k+1 the surface is the graph, over the symmetric difference of the two
+/// slices' simplified regions (only regions linked across the slab), of the shape-based
+/// interpolation height t = D_k / (D_k - D_k+1): it runs from the contour of slice k (t = 0)
+/// through the medial axis (t = 1/2, the paper's correspondence curve, inserted as vertices) to
+/// the contour of slice k+1 (t = 1). The planar domain is an exact constrained Delaunay
+/// triangulation of both contour sets (CGAL, exact constructions), so the lifted surface is
+/// embedded; where contours cross, the crossing point gets a vertical edge; where they coincide,
+/// a vertical wall. Regions without a partner on the next (previous) slice are closed by a planar
+/// cap in their own plane; a region alone on its slice becomes a slab of thickness d/2.
+/// Contour edges are shared exactly between the slabs and caps on both sides of a slice.
+/// Output: labels in increasing order, vertices without duplicates, triangles outward CCW.
+std::vector<ObjectSurface> triangulate_surfaces(const SliceContours& contours,
+                                                const std::vector<SliceDistanceFields>& fields,
+                                                const std::vector<MedialAxis>& medial_axes,
+                                                const TriangulateOptions& options);
+
+}  // namespace strata
