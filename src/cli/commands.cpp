@@ -325,6 +325,8 @@ int run_build(const BuildOptions& options) {
                   {"caps", surface.caps},
                   {"steiner_points", surface.steiner_points},
                   {"fallback_unsimplified_slices", surface.unsimplified_slices},
+                  {"fallback_split_slabs", surface.split_slabs},
+                  {"verified", surface.verification.ok()},
                   {"topology_mismatches", surface.topology_mismatches},
                   {"failed_slabs", surface.failed_slabs}};
         if (!is_closed_manifold(check)) {

@@ -119,8 +119,8 @@ Reconstruction reconstruct(const SliceStack& stack,
     if (!triangulate_options.progress) {
         triangulate_options.progress = options.progress;
     }
-    result.surfaces = triangulate_surfaces(result.contours, result.fields, result.medial_axes,
-                                           triangulate_options);
+    result.surfaces = triangulate_surfaces(stack, result.contours, result.fields,
+                                           result.medial_axes, triangulate_options);
     clock.done("triangulate");
     if (options.verify) {
         parallel_for(result.surfaces.size(), options.threads,

@@ -20,6 +20,7 @@
 #include <CGAL/box_intersection_d.h>
 #include <CGAL/intersections.h>
 
+#include "contours/extract_contours.h"
 #include "core/parallel.h"
 
 namespace strata {
@@ -109,12 +110,14 @@ public:
                  const std::vector<SliceDistanceFields>& fields,
                  const std::vector<MedialAxis>& medial_axes,
                  const TriangulateOptions& options,
-                 std::uint16_t label)
+                 std::uint16_t label,
+                 const std::vector<double>* level_z = nullptr)
         : contours_(contours),
           fields_(fields),
           medial_axes_(medial_axes),
           options_(options),
-          label_(label) {}
+          label_(label),
+          level_z_(level_z) {}
 
     ObjectSurface build();
 
@@ -151,7 +154,9 @@ private:
         surface_.mesh.positions.push_back({p.x, p.y, z});
         return std::uint32_t(surface_.mesh.positions.size() - 1);
     }
-    double slice_z(std::uint32_t k) const { return options_.slice_spacing_px * k; }
+    double slice_z(std::uint32_t k) const {
+        return level_z_ != nullptr ? (*level_z_)[k] : options_.slice_spacing_px * k;
+    }
     std::uint32_t owner_region(std::uint32_t slice, std::uint32_t local) const {
         const std::vector<Contour>& all = contours_.slices[slice].contours;
         const Contour& c = all[label_contours_[slice][local]];
@@ -183,6 +188,8 @@ private:
     const std::vector<MedialAxis>& medial_axes_;
     const TriangulateOptions& options_;
     std::uint16_t label_;
+    /// z of each level when levels are not the slices (split slabs), else null: z = k d.
+    const std::vector<double>* level_z_;
 
     ObjectSurface surface_;
     /// Per slice: indices (into the slice's contour list) of this label's contours.
@@ -959,7 +966,7 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
 
     // Output.
     const double z0 = slice_z(k);
-    const double d = options_.slice_spacing_px;
+    const double d = slice_z(k + 1) - z0;
     auto corner_id = [&](FaceHandle f, int i) -> std::int32_t {
         const VertexHandle v = f->vertex(i);
         switch (f->info().corner[std::size_t(i)]) {
@@ -1222,7 +1229,157 @@ ObjectSurface LabelSurface::build() {
 /// pixels (the surface would get the wrong topology), the label's contours on both slices of
 /// that slab fall back to their original, unsimplified polygons (exactly the pixel boundary,
 /// so the error bound holds trivially) and the label is built again, a few times at most.
-ObjectSurface build_label_surface(const SliceContours& contours,
+/// Where contours meet at a saddle corner v the tracer cuts the corner on one side (foreground
+/// 8-connected). Moves that cut to distance r of v and cuts the opposite corner by the same
+/// amount, so the region covers a small diamond around v: it overlaps whichever of the two
+/// diagonal pixels a neighbouring slice has, and the overlap stays connected through v.
+void widen_saddles(SliceContourSet& set, double r) {
+    std::vector<Vec2> corners;
+    for (Contour& c : set.contours) {
+        const std::size_t n = c.points.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            Vec2& a = c.points[i];
+            Vec2& b = c.points[(i + 1) % n];
+            if (std::abs(std::abs(a.x - b.x) - 0.5) > 1e-12 ||
+                std::abs(std::abs(a.y - b.y) - 0.5) > 1e-12) {
+                continue;
+            }
+            const Vec2 v{std::floor(a.x) == a.x ? a.x : b.x, std::floor(a.y) == a.y ? a.y : b.y};
+            corners.push_back(v);
+            a = v + (r / 0.5) * (a - v);
+            b = v + (r / 0.5) * (b - v);
+        }
+    }
+    for (Contour& c : set.contours) {
+        std::vector<Vec2> out;
+        const std::size_t n = c.points.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec2 p = c.points[i];
+            if (std::find(corners.begin(), corners.end(), p) == corners.end()) {
+                out.push_back(p);
+                continue;
+            }
+            for (const Vec2 q : {c.points[(i + n - 1) % n], c.points[(i + 1) % n]}) {
+                const Vec2 d = q - p;
+                out.push_back(p + (r / std::sqrt(dot(d, d))) * d);
+            }
+        }
+        c.points = std::move(out);
+        c.simplified.resize(c.points.size());
+        std::iota(c.simplified.begin(), c.simplified.end(), 0u);
+        c.edge_deviation_px.assign(c.points.size(), 0.0);
+    }
+}
+
+/// The stack with a level inserted in the middle of every split slab: the contours of the pixel
+/// AND of the two slices (the reference volume's middle layer), saddles widened, with its own
+/// distance field and links by pixel overlap to both slices.
+struct Levels {
+    SliceContours contours;
+    std::vector<SliceDistanceFields> fields;
+    std::vector<MedialAxis> medial_axes;
+    std::vector<double> z;
+    std::vector<std::uint32_t> slice_of;  ///< per level: the slice it is, or lies above
+};
+
+Levels split_slabs(const SliceStack& stack,
+                   const SliceContours& contours,
+                   const std::vector<SliceDistanceFields>& fields,
+                   const std::vector<MedialAxis>& medial_axes,
+                   std::uint16_t label,
+                   const std::vector<bool>& split,
+                   double d) {
+    Levels levels;
+    levels.contours.width = contours.width;
+    levels.contours.height = contours.height;
+    levels.contours.tolerance_px = contours.tolerance_px;
+    auto label_fields = [&](const SliceDistanceFields& all) {
+        SliceDistanceFields out;
+        for (const DistanceField& f : all.fields) {
+            if (f.label == label) {
+                out.fields.push_back(f);
+            }
+        }
+        return out;
+    };
+    std::vector<std::uint32_t> level_of(contours.slices.size());
+    for (std::uint32_t k = 0; k < contours.slices.size(); ++k) {
+        level_of[k] = std::uint32_t(levels.contours.slices.size());
+        levels.contours.slices.push_back(contours.slices[k]);
+        levels.fields.push_back(label_fields(fields[k]));
+        levels.z.push_back(k * d);
+        levels.slice_of.push_back(k);
+        if (k + 1 >= contours.slices.size()) {
+            break;
+        }
+        if (!split[k]) {
+            MedialAxis axis;
+            for (const MedialCurve& curve : medial_axes[k].curves) {
+                if (curve.label == label) {
+                    axis.curves.push_back(curve);
+                }
+            }
+            levels.medial_axes.push_back(std::move(axis));
+            continue;
+        }
+        // slice k, AND, slice k+1 of this label as a three-slice stack.
+        SliceStack mini;
+        mini.width = stack.width;
+        mini.height = stack.height;
+        mini.depth = 3;
+        mini.labels.assign(mini.slice_size() * 3, 0);
+        const auto lower = stack.slice(k);
+        const auto upper = stack.slice(k + 1);
+        for (std::size_t i = 0; i < mini.slice_size(); ++i) {
+            const bool a = lower[i] == label;
+            const bool b = upper[i] == label;
+            mini.labels[i] = a ? label : 0;
+            mini.labels[mini.slice_size() + i] = a && b ? label : 0;
+            mini.labels[2 * mini.slice_size() + i] = b ? label : 0;
+        }
+        mini.label_table.push_back({label, "label", {}});
+        const std::vector<std::uint16_t> only{label};
+        const SliceContourSet set0 = trace_slice_contours(mini, 0, only);
+        SliceContourSet mid = trace_slice_contours(mini, 1, only);
+        const SliceContourSet set2 = trace_slice_contours(mini, 2, only);
+        std::vector<RegionLink> down = link_slices(mini, 0, set0, mid, only);
+        std::vector<RegionLink> up = link_slices(mini, 1, mid, set2, only);
+        SliceDistanceFields mid_fields;
+        if (!mid.contours.empty()) {
+            mid_fields.fields.push_back(compute_distance_field(mini, mid, 1, label, {}));
+        }
+        widen_saddles(mid, 0.25);
+        const auto m = std::uint32_t(levels.contours.slices.size());
+        for (RegionLink& link : down) {
+            link.lower_slice = m - 1;
+            levels.contours.links.push_back(std::move(link));
+        }
+        for (RegionLink& link : up) {
+            link.lower_slice = m;
+            levels.contours.links.push_back(std::move(link));
+        }
+        levels.contours.slices.push_back(std::move(mid));
+        levels.fields.push_back(std::move(mid_fields));
+        levels.z.push_back((k + 0.5) * d);
+        levels.slice_of.push_back(k);
+        levels.medial_axes.emplace_back();
+        levels.medial_axes.emplace_back();
+    }
+    for (const RegionLink& link : contours.links) {
+        if (link.label == label && !split[link.lower_slice]) {
+            RegionLink moved = link;
+            moved.lower_slice = level_of[link.lower_slice];
+            levels.contours.links.push_back(std::move(moved));
+        }
+    }
+    std::stable_sort(
+        levels.contours.links.begin(), levels.contours.links.end(),
+        [](const RegionLink& a, const RegionLink& b) { return a.lower_slice < b.lower_slice; });
+    return levels;
+}
+
+ObjectSurface build_label_surface(const SliceStack& stack,
+                                  const SliceContours& contours,
                                   const std::vector<SliceDistanceFields>& fields,
                                   const std::vector<MedialAxis>& medial_axes,
                                   const TriangulateOptions& options,
@@ -1235,7 +1392,7 @@ ObjectSurface build_label_surface(const SliceContours& contours,
     SliceContours exact = contours;
     std::vector<bool> unsimplified(contours.slices.size(), false);
     std::vector<std::uint32_t> mismatched = first.mismatched_slabs();
-    for (int attempt = 0; attempt < 3 && !mismatched.empty(); ++attempt) {
+    for (int attempt = 0; attempt < 2 && !mismatched.empty(); ++attempt) {
         for (std::uint32_t k : mismatched) {
             for (std::uint32_t slice : {k, k + 1}) {
                 if (unsimplified[slice]) {
@@ -1255,6 +1412,23 @@ ObjectSurface build_label_surface(const SliceContours& contours,
         surface = again.build();
         mismatched = again.mismatched_slabs();
     }
+    if (!mismatched.empty()) {
+        // Last resort: split each remaining slab at the pixels' AND layer (the reference
+        // volume's own middle layer), so the surface meets it as R does.
+        std::vector<bool> split(contours.slices.size(), false);
+        for (std::uint32_t k : mismatched) {
+            split[k] = true;
+        }
+        const Levels levels =
+            split_slabs(stack, exact, fields, medial_axes, label, split, options.slice_spacing_px);
+        LabelSurface third(levels.contours, levels.fields, levels.medial_axes, options, label,
+                           &levels.z);
+        surface = third.build();
+        for (SlabIssue& issue : surface.issues) {
+            issue.lower_slice = levels.slice_of[issue.lower_slice];
+        }
+        surface.split_slabs = std::uint32_t(mismatched.size());
+    }
     surface.unsimplified_slices =
         std::uint32_t(std::count(unsimplified.begin(), unsimplified.end(), true));
     for (std::uint32_t k = 0; k < unsimplified.size(); ++k) {
@@ -1267,7 +1441,8 @@ ObjectSurface build_label_surface(const SliceContours& contours,
 
 }  // namespace
 
-std::vector<ObjectSurface> triangulate_surfaces(const SliceContours& contours,
+std::vector<ObjectSurface> triangulate_surfaces(const SliceStack& stack,
+                                                const SliceContours& contours,
                                                 const std::vector<SliceDistanceFields>& fields,
                                                 const std::vector<MedialAxis>& medial_axes,
                                                 const TriangulateOptions& options) {
@@ -1276,7 +1451,7 @@ std::vector<ObjectSurface> triangulate_surfaces(const SliceContours& contours,
     std::atomic<std::size_t> done{0};
     std::mutex progress_mutex;
     parallel_for(labels.size(), options.threads, [&](std::size_t i) {
-        surfaces[i] = build_label_surface(contours, fields, medial_axes, options, labels[i]);
+        surfaces[i] = build_label_surface(stack, contours, fields, medial_axes, options, labels[i]);
         if (options.progress) {
             const std::lock_guard lock(progress_mutex);
             options.progress("objects", ++done, labels.size());

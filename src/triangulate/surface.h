@@ -7,6 +7,7 @@
 #include "contours/slice_contours.h"
 #include "core/progress.h"
 #include "distance/distance_field.h"
+#include "input/slice_stack.h"
 #include "medial/medial_axis.h"
 #include "mesh/tri_mesh.h"
 
@@ -46,6 +47,9 @@ struct ObjectSurface {
     /// simplified ones overlapped their neighbours unlike the pixels.
     std::uint32_t unsimplified_slices = 0;
     std::vector<std::uint32_t> unsimplified;  ///< those slices, increasing
+    /// Last-resort fallback count: slabs split at the pixels' AND layer (a contour level half
+    /// way between the slices) because even the original contours overlapped unlike the pixels.
+    std::uint32_t split_slabs = 0;
     std::uint32_t failed_slabs = 0;  ///< slabs refinement could not make valid
     std::vector<SlabIssue> issues;   ///< one per mismatch or failure, sorted by slice
 
@@ -75,7 +79,8 @@ struct ObjectSurface {
 /// cap in their own plane; a region alone on its slice becomes a slab of thickness d/2.
 /// Contour edges are shared exactly between the slabs and caps on both sides of a slice.
 /// Output: labels in increasing order, vertices without duplicates, triangles outward CCW.
-std::vector<ObjectSurface> triangulate_surfaces(const SliceContours& contours,
+std::vector<ObjectSurface> triangulate_surfaces(const SliceStack& stack,
+                                                const SliceContours& contours,
                                                 const std::vector<SliceDistanceFields>& fields,
                                                 const std::vector<MedialAxis>& medial_axes,
                                                 const TriangulateOptions& options);
