@@ -105,6 +105,31 @@ TEST(Cli, DefaultBuildUsesBuiltInPhantomAndWritesSummary) {
         EXPECT_GT(label.at("voxels").get<long>(), 0);
         EXPECT_FALSE(label.at("name").get<std::string>().empty());
     }
+    // One verified closed surface per object, written as a mesh file, and the scene.
+    ASSERT_EQ(written.at("objects").size(), written.at("input").at("labels").size());
+    for (const auto& object : written.at("objects")) {
+        const auto& surface = object.at("surface");
+        EXPECT_TRUE(surface.at("closed_manifold").get<bool>());
+        EXPECT_TRUE(surface.at("verified").get<bool>());
+        EXPECT_GT(surface.at("triangles").get<long>(), 0);
+        EXPECT_GT(surface.at("volume_ml").get<double>(), 0.0);
+        const fs::path mesh = surface.at("file").get<std::string>();
+        EXPECT_TRUE(fs::exists(mesh)) << mesh;
+        EXPECT_EQ(mesh.parent_path(), out / "meshes");
+    }
+    EXPECT_TRUE(fs::exists(out / "scene.glb"));
+    EXPECT_EQ(written.at("scene").get<std::string>(), (out / "scene.glb").string());
+    EXPECT_TRUE(written.at("timings_s").contains("triangulate"));
+}
+
+TEST(Cli, MeshFormatOption) {
+    const fs::path out = test::fresh_temp_dir("cli_mesh_format");
+    const CliRun r =
+        run_cli({"build", "--phantom", "sphere", "-o", out.string(), "--mesh-format", "stl"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(fs::exists(out / "meshes" / "sphere.stl"));
+    const CliRun bad = run_cli({"build", "-o", out.string(), "--mesh-format", "vrml"});
+    EXPECT_EQ(bad.exit_code, 2);
 }
 
 TEST(Cli, PhantomPngAndNiftiReadBackWithSameDims) {
