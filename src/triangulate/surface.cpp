@@ -361,25 +361,43 @@ void LabelSurface::share_overlap_points() {
         return std::array<Point, 2>{to_point(c.points[c.simplified[e[2]]]),
                                     to_point(c.points[c.simplified[(e[2] + 1) % n]])};
     };
-    bool changed = true;
-    while (changed) {
-        changed = false;
-        for (const Overlap& o : overlaps_) {
-            for (int dir = 0; dir < 2; ++dir) {
-                const auto& from = dir == 0 ? o.lower : o.upper;
-                const auto& to = dir == 0 ? o.upper : o.lower;
-                std::vector<Point> candidates = list(from);
-                for (const Point& p : endpoints(from)) {
-                    candidates.push_back(p);
+    // Worklist: an overlap is looked at again only when one of its edges gained a point.
+    std::map<std::array<std::uint32_t, 3>, std::vector<std::size_t>> by_edge;
+    for (std::size_t i = 0; i < overlaps_.size(); ++i) {
+        by_edge[overlaps_[i].lower].push_back(i);
+        by_edge[overlaps_[i].upper].push_back(i);
+    }
+    std::deque<std::size_t> work(overlaps_.size());
+    std::iota(work.begin(), work.end(), std::size_t(0));
+    std::vector<bool> queued(overlaps_.size(), true);
+    while (!work.empty()) {
+        const Overlap& o = overlaps_[work.front()];
+        queued[work.front()] = false;
+        work.pop_front();
+        for (int dir = 0; dir < 2; ++dir) {
+            const auto& from = dir == 0 ? o.lower : o.upper;
+            const auto& to = dir == 0 ? o.upper : o.lower;
+            const std::vector<Point>& source = list(from);  // another slice: not `target`
+            std::vector<Point>& target = list(to);
+            bool grew = false;
+            auto share = [&](const Point& p) {
+                if (o.segment.has_on(p) &&
+                    std::find(target.begin(), target.end(), p) == target.end()) {
+                    target.push_back(p);
+                    grew = true;
                 }
-                for (const Point& p : candidates) {
-                    if (!o.segment.has_on(p)) {
-                        continue;
-                    }
-                    std::vector<Point>& target = list(to);
-                    if (std::find(target.begin(), target.end(), p) == target.end()) {
-                        target.push_back(p);
-                        changed = true;
+            };
+            for (const Point& p : source) {
+                share(p);
+            }
+            for (const Point& p : endpoints(from)) {
+                share(p);
+            }
+            if (grew) {
+                for (const std::size_t j : by_edge[to]) {
+                    if (!queued[j]) {
+                        queued[j] = true;
+                        work.push_back(j);
                     }
                 }
             }
@@ -929,13 +947,12 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
                 for (int i = 0; i < 3; ++i) {
                     const Level a = c[std::size_t(ccw(i))];
                     const Level b = c[std::size_t(cw(i))];
+                    // Both faces of the edge may ask (sorted and made unique below); no
+                    // ordering by address, which would make the output depend on the heap.
                     if (a != kBetween && a == b && !is_boundary(f, i, k) &&
                         !cdt.is_constrained({f, i})) {
-                        const FaceHandle n = f->neighbor(i);
-                        if (&*f < &*n || !in_surface(n, k)) {
-                            refine.push_back(CGAL::midpoint(f->vertex(ccw(i))->point(),
-                                                            f->vertex(cw(i))->point()));
-                        }
+                        refine.push_back(
+                            CGAL::midpoint(f->vertex(ccw(i))->point(), f->vertex(cw(i))->point()));
                     }
                 }
             }

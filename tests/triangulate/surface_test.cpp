@@ -116,6 +116,27 @@ TEST_P(CatalogueSurface, IsClosedManifoldWithReferenceTopology) {
     }
 }
 
+// Same surfaces for any thread count and heap layout (a second run in the same process sees
+// other addresses): nothing may depend on the order of pointers.
+TEST(Surface, IdenticalForAnyThreadCount) {
+    for (const char* name : {"t35_speckle_noise", "t33_many_components", "scene"}) {
+        SCOPED_TRACE(name);
+        const Phantom phantom = make_phantom(name);
+        Report report;
+        ReconstructOptions options;
+        options.verify = false;
+        options.threads = 1;
+        const Reconstruction one = reconstruct(phantom.stack, options, report);
+        options.threads = 2;
+        const Reconstruction two = reconstruct(phantom.stack, options, report);
+        ASSERT_EQ(one.surfaces.size(), two.surfaces.size());
+        for (std::size_t i = 0; i < one.surfaces.size(); ++i) {
+            EXPECT_TRUE(one.surfaces[i].mesh.positions == two.surfaces[i].mesh.positions);
+            EXPECT_TRUE(one.surfaces[i].mesh.triangles == two.surfaces[i].mesh.triangles);
+        }
+    }
+}
+
 std::vector<std::string> catalogue_names() {
     std::vector<std::string> names;
     for (const std::string& name : phantom_names()) {
