@@ -130,10 +130,13 @@ private:
 
     // --- per slab ------------------------------------------------------------------------------
     void triangulate_slab(std::uint32_t k);
+    /// Inserts the contour rings of `slice` (only those of region `only_region` when it is not
+    /// negative) as vertices and constraints, recording which contour owns each edge.
     void insert_rings(Cdt& cdt,
                       std::uint32_t slice,
                       bool upper,
-                      std::map<EdgeKey, EdgeOwner>& owners);
+                      std::map<EdgeKey, EdgeOwner>& owners,
+                      std::int64_t only_region = -1);
     void flood_regions(Cdt& cdt, std::uint32_t k, const std::map<EdgeKey, EdgeOwner>& owners);
     void check_overlap_topology(Cdt& cdt, std::uint32_t k);
     bool in_lower(const FaceInfo& f, std::uint32_t k) const;
@@ -146,6 +149,8 @@ private:
     bool resolve_corner(Cdt& cdt, FaceHandle f, int i, std::uint32_t k, std::vector<Point>& refine);
     double height_t(const Point& p, std::uint32_t k) const;
     VertexHandle insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k);
+    /// Gives vertex v a height between the slices (from the distance fields).
+    void make_steiner(VertexHandle v, std::uint32_t k);
 
     // --- caps ----------------------------------------------------------------------------------
     void cap_region(std::uint32_t k, std::uint32_t region, bool top, bool bottom);
@@ -439,8 +444,12 @@ void LabelSurface::build_rings() {
 void LabelSurface::insert_rings(Cdt& cdt,
                                 std::uint32_t slice,
                                 bool upper,
-                                std::map<EdgeKey, EdgeOwner>& owners) {
+                                std::map<EdgeKey, EdgeOwner>& owners,
+                                std::int64_t only_region) {
     for (std::uint32_t local = 0; local < rings_[slice].size(); ++local) {
+        if (only_region >= 0 && owner_region(slice, local) != only_region) {
+            continue;
+        }
         const Ring& ring = rings_[slice][local];
         std::vector<VertexHandle> handles;
         handles.reserve(ring.points.size());
@@ -753,13 +762,17 @@ double LabelSurface::height_t(const Point& p, std::uint32_t k) const {
     return std::clamp(t, 0.05, 0.95);
 }
 
+void LabelSurface::make_steiner(VertexHandle v, std::uint32_t k) {
+    v->info().steiner = std::int32_t(steiner_t_.size());
+    steiner_t_.push_back(height_t(v->point(), k));
+    steiner_id_.push_back(-1);
+    steiner_xy_.push_back(to_vec(v->point()));
+}
+
 VertexHandle LabelSurface::insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k) {
     VertexHandle v = cdt.insert(p);
     if (v->info().steiner < 0 && v->info().lower < 0 && v->info().upper < 0) {
-        v->info().steiner = std::int32_t(steiner_t_.size());
-        steiner_t_.push_back(height_t(p, k));
-        steiner_id_.push_back(-1);
-        steiner_xy_.push_back(to_vec(p));
+        make_steiner(v, k);
     }
     return v;
 }
@@ -810,10 +823,7 @@ bool LabelSurface::resolve_corner(
     if (cw_class == kUnset) {
         // No boundary around v: a contour point inside the surface's domain (only where
         // unlinked contours lie inside it). Lift it like a Steiner point.
-        v->info().steiner = std::int32_t(steiner_t_.size());
-        steiner_t_.push_back(height_t(v->point(), k));
-        steiner_id_.push_back(-1);
-        steiner_xy_.push_back(to_vec(v->point()));
+        make_steiner(v, k);
         f->info().corner[std::size_t(i)] = kBetween;
         return true;
     }
@@ -1106,27 +1116,8 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
 /// above, below when none below; alone on its slice it becomes a slab of thickness d/2.
 void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, bool bottom) {
     Cdt cdt;
-    std::vector<std::uint32_t> locals;
-    for (std::uint32_t local = 0; local < rings_[k].size(); ++local) {
-        if (owner_region(k, local) == region) {
-            locals.push_back(local);
-        }
-    }
     std::map<EdgeKey, EdgeOwner> owners;
-    for (std::uint32_t local : locals) {
-        const Ring& ring = rings_[k][local];
-        std::vector<VertexHandle> handles;
-        for (std::size_t i = 0; i < ring.points.size(); ++i) {
-            VertexHandle v = cdt.insert(ring.points[i]);
-            v->info().lower = std::int32_t(ring.ids[i]);
-            handles.push_back(v);
-        }
-        for (std::size_t i = 0; i < handles.size(); ++i) {
-            cdt.insert_constraint(handles[i], handles[(i + 1) % handles.size()]);
-            owners[edge_key(handles[i], handles[(i + 1) % handles.size()])].lower =
-                std::int32_t(local);
-        }
-    }
+    insert_rings(cdt, k, false, owners, region);
     flood_regions(cdt, k, owners);  // inside the region: lower_region >= 0
     std::vector<std::array<std::uint32_t, 3>>& out = surface_.mesh.triangles;
     const bool slab = top && bottom;
@@ -1166,7 +1157,10 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
     }
     if (slab) {
         // Walls: contours keep the region on their left, so outward is to the right.
-        for (std::uint32_t local : locals) {
+        for (std::uint32_t local = 0; local < rings_[k].size(); ++local) {
+            if (owner_region(k, local) != region) {
+                continue;
+            }
             const Ring& ring = rings_[k][local];
             for (std::size_t i = 0; i < ring.ids.size(); ++i) {
                 const auto p = lift(ring.ids[i]);
