@@ -42,6 +42,50 @@ bool is_finite(const Vec3& p) {
     return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
 }
 
+/// CGAL's do_faces_intersect: triangles h and g (corner points and vertex ids, both
+/// non-degenerate) intersect beyond the vertices and edges they share (equal ids).
+bool faces_intersect(const std::array<const Point*, 3>& hp3,
+                     const std::array<std::uint32_t, 3>& h,
+                     const std::array<const Point*, 3>& gp3,
+                     const std::array<std::uint32_t, 3>& g) {
+    int shared = 0;
+    int hi = -1, gj = -1;  // a shared corner (1 shared) or the unshared corner (2 shared)
+    std::array<bool, 3> h_shared{}, g_shared{};
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            if (h[i] == g[j]) {
+                ++shared;
+                h_shared[i] = g_shared[j] = true;
+                hi = i;
+                gj = j;
+            }
+        }
+    }
+    auto hp = [&](int k) -> const Point& { return *hp3[k % 3]; };
+    auto gp = [&](int k) -> const Point& { return *gp3[k % 3]; };
+
+    if (shared == 3) {
+        return true;  // the same triangle twice
+    }
+    if (shared == 2) {
+        // Overlap only if coplanar with the unshared corners on the same side of the edge.
+        const int h_free = !h_shared[0] ? 0 : (!h_shared[1] ? 1 : 2);
+        const int g_free = !g_shared[0] ? 0 : (!g_shared[1] ? 1 : 2);
+        const Point& p = hp(h_free + 1);
+        const Point& q = hp(h_free + 2);
+        return CGAL::coplanar(p, q, hp(h_free), gp(g_free)) &&
+               CGAL::coplanar_orientation(p, q, hp(h_free), gp(g_free)) == CGAL::POSITIVE;
+    }
+    const Triangle th(hp(0), hp(1), hp(2));
+    const Triangle tg(gp(0), gp(1), gp(2));
+    if (shared == 1) {
+        // Overlap beyond the shared corner only if an opposite side meets the other triangle.
+        return CGAL::do_intersect(th, Segment(gp(gj + 1), gp(gj + 2))) ||
+               CGAL::do_intersect(tg, Segment(hp(hi + 1), hp(hi + 2)));
+    }
+    return CGAL::do_intersect(th, tg);
+}
+
 /// The soup ready for testing: canonical vertex ids (one per distinct finite position) and a
 /// box per testable triangle.
 class Soup {
@@ -124,42 +168,8 @@ private:
             h[k] = canonical_[ht[k]];
             g[k] = canonical_[gt[k]];
         }
-        int shared = 0;
-        int hi = -1, gj = -1;  // a shared corner (1 shared) or the unshared corner (2 shared)
-        std::array<bool, 3> h_shared{}, g_shared{};
-        for (int i = 0; i < 3; ++i) {
-            for (int j = 0; j < 3; ++j) {
-                if (h[i] == g[j]) {
-                    ++shared;
-                    h_shared[i] = g_shared[j] = true;
-                    hi = i;
-                    gj = j;
-                }
-            }
-        }
-        auto hp = [&](int k) -> const Point& { return points_[ht[k % 3]]; };
-        auto gp = [&](int k) -> const Point& { return points_[gt[k % 3]]; };
-
-        if (shared == 3) {
-            return true;  // the same triangle twice
-        }
-        if (shared == 2) {
-            // Overlap only if coplanar with the unshared corners on the same side of the edge.
-            const int h_free = !h_shared[0] ? 0 : (!h_shared[1] ? 1 : 2);
-            const int g_free = !g_shared[0] ? 0 : (!g_shared[1] ? 1 : 2);
-            const Point& p = hp(h_free + 1);
-            const Point& q = hp(h_free + 2);
-            return CGAL::coplanar(p, q, hp(h_free), gp(g_free)) &&
-                   CGAL::coplanar_orientation(p, q, hp(h_free), gp(g_free)) == CGAL::POSITIVE;
-        }
-        const Triangle th(hp(0), hp(1), hp(2));
-        const Triangle tg(gp(0), gp(1), gp(2));
-        if (shared == 1) {
-            // Overlap beyond the shared corner only if an opposite side meets the other triangle.
-            return CGAL::do_intersect(th, Segment(gp(gj + 1), gp(gj + 2))) ||
-                   CGAL::do_intersect(tg, Segment(hp(hi + 1), hp(hi + 2)));
-        }
-        return CGAL::do_intersect(th, tg);
+        return faces_intersect({&points_[ht[0]], &points_[ht[1]], &points_[ht[2]]}, h,
+                               {&points_[gt[0]], &points_[gt[1]], &points_[gt[2]]}, g);
     }
 
     const TriMesh& mesh_;
@@ -193,6 +203,21 @@ SelfIntersections find_self_intersections(const TriMesh& mesh, std::size_t max_p
     }
     std::sort(result.pairs.begin(), result.pairs.end());
     return result;
+}
+
+bool triangles_intersect(const std::array<Vec3, 3>& a,
+                         const std::array<std::uint32_t, 3>& a_ids,
+                         const std::array<Vec3, 3>& b,
+                         const std::array<std::uint32_t, 3>& b_ids) {
+    std::array<Point, 3> pa, pb;
+    for (int i = 0; i < 3; ++i) {
+        pa[i] = Point(a[i].x, a[i].y, a[i].z);
+        pb[i] = Point(b[i].x, b[i].y, b[i].z);
+    }
+    if (CGAL::collinear(pa[0], pa[1], pa[2]) || CGAL::collinear(pb[0], pb[1], pb[2])) {
+        return true;
+    }
+    return faces_intersect({&pa[0], &pa[1], &pa[2]}, a_ids, {&pb[0], &pb[1], &pb[2]}, b_ids);
 }
 
 bool has_self_intersections(const TriMesh& mesh) {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -41,5 +42,13 @@ SelfIntersections find_self_intersections(const TriMesh& mesh, std::size_t max_p
 /// True unless the mesh is certified free of self-intersections (see
 /// `SelfIntersections::is_free`); stops at the first intersecting pair or degenerate triangle.
 bool has_self_intersections(const TriMesh& mesh);
+
+/// The pairwise test of `find_self_intersections` for two triangles given by their corners and
+/// vertex ids: true when they intersect beyond the vertices and edges they share (equal ids), or
+/// when either is degenerate (three collinear corners). Exact (CGAL predicates on the doubles).
+bool triangles_intersect(const std::array<Vec3, 3>& a,
+                         const std::array<std::uint32_t, 3>& a_ids,
+                         const std::array<Vec3, 3>& b,
+                         const std::array<std::uint32_t, 3>& b_ids);
 
 }  // namespace strata

@@ -1,0 +1,495 @@
+// Error-bounded half-edge collapses (Klein, Schilling, Strasser, section 7; Hoppe, "Progressive
+// meshes", SIGGRAPH 1996, for the collapse itself). The cost of a collapse is the error bound of
+// the triangles it creates, read from the slice distance fields (slice_error.cpp), so the error
+// never accumulates: it is always measured against the original contours.
+//
+// Topology is kept by the link condition (Dey, Edelsbrunner, Guha, Nekhayev, "Topology preserving
+// edge contraction", 1999): for a closed surface, contracting edge uv keeps the surface's topology
+// iff the vertices adjacent to both u and v are exactly the two opposite the edge, and neither of
+// those is left with fewer than three edges. Embedding is kept by testing every triangle a
+// collapse creates against its neighbourhood (a uniform grid over the triangles) exactly.
+#include "simplify/edge_collapse.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <queue>
+#include <string>
+#include <unordered_map>
+
+#include "core/error.h"
+#include "mesh/self_intersection.h"
+
+namespace strata {
+
+namespace {
+
+using Tri = std::array<std::uint32_t, 3>;
+constexpr std::uint32_t kNone = 0xffffffffu;
+
+struct Candidate {
+    double cost = 0.0;
+    std::uint32_t u = 0;  ///< local vertex removed
+    std::uint32_t v = 0;  ///< local vertex kept
+    std::uint32_t stamp = 0;
+
+    /// Min-heap order on (cost, u, v).
+    friend bool operator<(const Candidate& a, const Candidate& b) {
+        if (a.cost != b.cost) {
+            return a.cost > b.cost;
+        }
+        if (a.u != b.u) {
+            return a.u > b.u;
+        }
+        return a.v > b.v;
+    }
+};
+
+Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
+    return cross(b - a, c - a);
+}
+
+/// A uniform grid over triangle boxes: candidate neighbours for the intersection tests. Entries
+/// go stale when a triangle changes (it is added again where it now lies); queries return a
+/// superset, which the exact test sorts out.
+class TriangleGrid {
+public:
+    explicit TriangleGrid(double cell) : inverse_(1.0 / cell) {}
+
+    void insert(std::uint32_t id, const std::array<Vec3, 3>& t) {
+        for_cells(t, [&](std::uint64_t key) { cells_[key].push_back(id); });
+    }
+    template <class Visit>
+    void query(const std::array<Vec3, 3>& t, Visit&& visit) const {
+        for_cells(t, [&](std::uint64_t key) {
+            const auto it = cells_.find(key);
+            if (it != cells_.end()) {
+                for (const std::uint32_t id : it->second) {
+                    visit(id);
+                }
+            }
+        });
+    }
+
+private:
+    template <class Fn>
+    void for_cells(const std::array<Vec3, 3>& t, Fn&& fn) const {
+        std::array<std::int64_t, 3> lo{}, hi{};
+        for (int a = 0; a < 3; ++a) {
+            const double mn = std::min({t[0][a], t[1][a], t[2][a]});
+            const double mx = std::max({t[0][a], t[1][a], t[2][a]});
+            lo[a] = static_cast<std::int64_t>(std::floor(mn * inverse_));
+            hi[a] = static_cast<std::int64_t>(std::floor(mx * inverse_));
+        }
+        for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
+            for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
+                for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+                    fn((std::uint64_t(x & 0x1fffff) << 42) | (std::uint64_t(y & 0x1fffff) << 21) |
+                       std::uint64_t(z & 0x1fffff));
+                }
+            }
+        }
+    }
+
+    double inverse_;
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+};
+
+class Collapser {
+public:
+    Collapser(const CollapseProblem& problem,
+              const SliceErrorMeter& meter,
+              const CollapseOptions& options)
+        : positions_(*problem.positions),
+          meter_(meter),
+          options_(options),
+          grid_(grid_cell(problem)) {
+        // Local vertex ids: the piece's vertices in increasing global id.
+        for (const Tri& t : problem.triangles) {
+            for (const std::uint32_t g : t) {
+                if (g >= positions_.size()) {
+                    throw Error(ErrorCode::InvalidInput,
+                                "edge collapse: vertex " + std::to_string(g) + " out of range (" +
+                                    std::to_string(positions_.size()) + " vertices)");
+                }
+                global_.push_back(g);
+            }
+        }
+        std::sort(global_.begin(), global_.end());
+        global_.erase(std::unique(global_.begin(), global_.end()), global_.end());
+        const std::size_t n = global_.size();
+        vertex_triangles_.resize(n);
+        locked_.assign(n, false);
+        stamp_.assign(n, 0);
+        for (const std::uint32_t g : problem.locked) {
+            const std::uint32_t v = local(g);
+            if (v != kNone) {
+                locked_[v] = true;
+            }
+        }
+        triangles_.reserve(problem.triangles.size());
+        for (std::size_t i = 0; i < problem.triangles.size(); ++i) {
+            const Tri& t = problem.triangles[i];
+            const Tri lt{local(t[0]), local(t[1]), local(t[2])};
+            const std::uint32_t id = static_cast<std::uint32_t>(triangles_.size());
+            triangles_.push_back(lt);
+            alive_.push_back(true);
+            error_.push_back(i < problem.triangle_error_px.size() ? problem.triangle_error_px[i]
+                                                                  : 0.0);
+            for (const std::uint32_t v : lt) {
+                vertex_triangles_[v].push_back(id);
+            }
+            grid_.insert(id, corners(id));
+        }
+        alive_count_ = triangles_.size();
+        obstacles_ = problem.obstacles;
+        for (std::size_t i = 0; i < obstacles_.size(); ++i) {
+            for (const std::uint32_t g : obstacles_[i]) {
+                if (g >= positions_.size()) {
+                    throw Error(ErrorCode::InvalidInput, "edge collapse: obstacle vertex " +
+                                                             std::to_string(g) + " out of range");
+                }
+            }
+            grid_.insert(kObstacleBit | std::uint32_t(i), obstacle_corners(std::uint32_t(i)));
+        }
+        check_edges();
+    }
+
+    CollapseResult run() {
+        CollapseResult result;
+        for (std::uint32_t u = 0; u < global_.size(); ++u) {
+            push_candidates(u);
+        }
+        while (alive_count_ > options_.target_triangles && !queue_.empty()) {
+            const Candidate c = queue_.top();
+            queue_.pop();
+            if (c.stamp != stamp_[c.u] || vertex_triangles_[c.u].empty()) {
+                continue;  // stale: u's star changed since
+            }
+            if (c.cost > options_.max_error_px) {
+                break;
+            }
+            if (!topology_allows(c.u, c.v) || creates_intersection(c.u, c.v)) {
+                continue;
+            }
+            apply(c.u, c.v);
+            result.collapses.emplace_back(global_[c.u], global_[c.v]);
+        }
+        for (std::size_t t = 0; t < triangles_.size(); ++t) {
+            if (!alive_[t]) {
+                continue;
+            }
+            const Tri& lt = triangles_[t];
+            result.triangles.push_back({global_[lt[0]], global_[lt[1]], global_[lt[2]]});
+            result.triangle_error_px.push_back(error_[t]);
+            result.max_error_px = std::max(result.max_error_px, error_[t]);
+        }
+        return result;
+    }
+
+private:
+    static constexpr std::uint32_t kObstacleBit = 0x80000000u;
+
+    static double grid_cell(const CollapseProblem& problem) {
+        // About twice the mean edge length: a triangle covers a few cells.
+        double sum = 0.0;
+        std::size_t count = 0;
+        for (const Tri& t : problem.triangles) {
+            for (int i = 0; i < 3; ++i) {
+                const std::uint32_t a = t[i], b = t[(i + 1) % 3];
+                if (a < problem.positions->size() && b < problem.positions->size()) {
+                    sum += norm((*problem.positions)[a] - (*problem.positions)[b]);
+                    ++count;
+                }
+            }
+        }
+        const double mean = count > 0 ? sum / double(count) : 1.0;
+        return std::max(2.0 * mean, 1e-3);
+    }
+
+    std::uint32_t local(std::uint32_t g) const {
+        const auto it = std::lower_bound(global_.begin(), global_.end(), g);
+        return it != global_.end() && *it == g ? std::uint32_t(it - global_.begin()) : kNone;
+    }
+    const Vec3& position(std::uint32_t v) const { return positions_[global_[v]]; }
+    std::array<Vec3, 3> corners(std::uint32_t t) const {
+        const Tri& lt = triangles_[t];
+        return {position(lt[0]), position(lt[1]), position(lt[2])};
+    }
+    std::array<Vec3, 3> obstacle_corners(std::uint32_t i) const {
+        const Tri& g = obstacles_[i];
+        return {positions_[g[0]], positions_[g[1]], positions_[g[2]]};
+    }
+
+    /// Every edge of the piece in at most two triangles, once in each direction.
+    void check_edges() const {
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> edges;
+        edges.reserve(triangles_.size() * 3);
+        for (std::uint32_t t = 0; t < triangles_.size(); ++t) {
+            const Tri& lt = triangles_[t];
+            for (int i = 0; i < 3; ++i) {
+                edges.emplace_back(std::uint64_t(lt[i]) << 32 | lt[(i + 1) % 3], t);
+            }
+        }
+        std::sort(edges.begin(), edges.end());
+        for (std::size_t i = 1; i < edges.size(); ++i) {
+            if (edges[i].first == edges[i - 1].first) {
+                throw Error(
+                    ErrorCode::InvalidInput,
+                    "edge collapse: edge (" + std::to_string(global_[edges[i].first >> 32]) + ", " +
+                        std::to_string(global_[edges[i].first & 0xffffffffu]) +
+                        ") is used twice in the same direction (triangles " +
+                        std::to_string(edges[i - 1].second) + " and " +
+                        std::to_string(edges[i].second) + "): expected an oriented manifold piece");
+            }
+        }
+    }
+
+    /// Sorted distinct neighbours of v.
+    std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
+        std::vector<std::uint32_t> result;
+        for (const std::uint32_t t : vertex_triangles_[v]) {
+            for (const std::uint32_t w : triangles_[t]) {
+                if (w != v) {
+                    result.push_back(w);
+                }
+            }
+        }
+        std::sort(result.begin(), result.end());
+        result.erase(std::unique(result.begin(), result.end()), result.end());
+        return result;
+    }
+
+    bool contains(std::uint32_t t, std::uint32_t v) const {
+        const Tri& lt = triangles_[t];
+        return lt[0] == v || lt[1] == v || lt[2] == v;
+    }
+
+    /// Triangle t with u replaced by v.
+    std::array<Vec3, 3> moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        const Tri& lt = triangles_[t];
+        std::array<Vec3, 3> c{};
+        for (int i = 0; i < 3; ++i) {
+            c[i] = position(lt[i] == u ? v : lt[i]);
+        }
+        return c;
+    }
+
+    /// Link condition, degrees, locked edges and the 2 triangles of edge uv.
+    bool topology_allows(std::uint32_t u, std::uint32_t v) const {
+        if (locked_[u]) {
+            return false;
+        }
+        std::vector<std::uint32_t> opposite;
+        for (const std::uint32_t t : vertex_triangles_[u]) {
+            if (contains(t, v)) {
+                for (const std::uint32_t w : triangles_[t]) {
+                    if (w != u && w != v) {
+                        opposite.push_back(w);
+                    }
+                }
+            }
+        }
+        if (opposite.size() != 2 || opposite[0] == opposite[1]) {
+            return false;  // not an interior manifold edge of the piece
+        }
+        const std::vector<std::uint32_t> nu = neighbours(u);
+        const std::vector<std::uint32_t> nv = neighbours(v);
+        std::vector<std::uint32_t> common;
+        std::set_intersection(nu.begin(), nu.end(), nv.begin(), nv.end(),
+                              std::back_inserter(common));
+        std::sort(opposite.begin(), opposite.end());
+        if (common != opposite) {
+            return false;  // link condition
+        }
+        for (const std::uint32_t w : opposite) {
+            if (neighbours(w).size() <= 3) {
+                return false;
+            }
+        }
+        if (nu.size() + nv.size() - 4 < 3) {
+            return false;
+        }
+        if (locked_[v]) {
+            // note: an edge between two locked vertices may exist outside the piece in some cut;
+            // creating it here could double it there.
+            for (const std::uint32_t w : nu) {
+                if (w != v && locked_[w] && !std::binary_search(nv.begin(), nv.end(), w)) {
+                    return false;
+                }
+            }
+        }
+        return true;
+    }
+
+    /// Cost of collapsing u onto v (max error bound of the changed triangles), or nothing when
+    /// the collapse folds or degenerates a triangle.
+    std::optional<double> cost(std::uint32_t u, std::uint32_t v) const {
+        double reached = 0.0;
+        bool any = false;
+        for (const std::uint32_t t : vertex_triangles_[u]) {
+            if (contains(t, v)) {
+                continue;
+            }
+            const std::array<Vec3, 3> before = corners(t);
+            const std::array<Vec3, 3> after = moved(t, u, v);
+            const Vec3 n0 = normal_of(before[0], before[1], before[2]);
+            const Vec3 n1 = normal_of(after[0], after[1], after[2]);
+            const double l0 = norm(n0), l1 = norm(n1);
+            if (!(l1 > 0.0) || !(l0 > 0.0)) {
+                return std::nullopt;
+            }
+            if (dot(n0, n1) < std::max(options_.min_normal_cos, 1e-12) * l0 * l1) {
+                return std::nullopt;
+            }
+            reached = meter_.triangle_error_px(after, reached);
+            any = true;
+            if (reached > options_.max_error_px) {
+                return std::nullopt;
+            }
+        }
+        if (!any) {
+            return std::nullopt;
+        }
+        return reached;
+    }
+
+    void push_candidates(std::uint32_t u) {
+        if (locked_[u] || vertex_triangles_[u].empty()) {
+            return;
+        }
+        for (const std::uint32_t v : neighbours(u)) {
+            if (const std::optional<double> c = cost(u, v)) {
+                queue_.push({*c, u, v, stamp_[u]});
+            }
+        }
+    }
+
+    bool creates_intersection(std::uint32_t u, std::uint32_t v) {
+        std::vector<std::uint32_t> changed;
+        for (const std::uint32_t t : vertex_triangles_[u]) {
+            if (!contains(t, v)) {
+                changed.push_back(t);
+            }
+        }
+        auto ids_after = [&](std::uint32_t t) {
+            const Tri& lt = triangles_[t];
+            Tri g{};
+            for (int i = 0; i < 3; ++i) {
+                g[i] = global_[lt[i] == u ? v : lt[i]];
+            }
+            return g;
+        };
+        if (seen_.size() < triangles_.size() + obstacles_.size()) {
+            seen_.resize(triangles_.size() + obstacles_.size(), 0);
+        }
+        for (std::size_t a = 0; a < changed.size(); ++a) {
+            ++query_;  // each new triangle meets every neighbour once
+            const std::array<Vec3, 3> ta = moved(changed[a], u, v);
+            const Tri ia = ids_after(changed[a]);
+            // the other new triangles
+            for (std::size_t b = a + 1; b < changed.size(); ++b) {
+                if (triangles_intersect(ta, ia, moved(changed[b], u, v), ids_after(changed[b]))) {
+                    return true;
+                }
+            }
+            bool hit = false;
+            grid_.query(ta, [&](std::uint32_t id) {
+                if (hit) {
+                    return;
+                }
+                const bool obstacle = (id & kObstacleBit) != 0;
+                const std::uint32_t index = id & ~kObstacleBit;
+                const std::size_t slot = obstacle ? triangles_.size() + index : index;
+                if (seen_[slot] == query_) {
+                    return;
+                }
+                seen_[slot] = query_;
+                if (obstacle) {
+                    const Tri& g = obstacles_[index];
+                    hit = triangles_intersect(ta, ia, obstacle_corners(index), g);
+                    return;
+                }
+                if (!alive_[index] || contains(index, u)) {
+                    return;  // removed or replaced by this collapse
+                }
+                const Tri& lt = triangles_[index];
+                hit = triangles_intersect(ta, ia, corners(index),
+                                          {global_[lt[0]], global_[lt[1]], global_[lt[2]]});
+            });
+            if (hit) {
+                return true;
+            }
+        }
+        return false;
+    }
+
+    void apply(std::uint32_t u, std::uint32_t v) {
+        std::vector<std::uint32_t> star = vertex_triangles_[u];
+        double reached = 0.0;
+        for (const std::uint32_t t : star) {
+            if (contains(t, v)) {
+                alive_[t] = false;
+                --alive_count_;
+                for (const std::uint32_t w : triangles_[t]) {
+                    if (w != u) {
+                        auto& list = vertex_triangles_[w];
+                        list.erase(std::find(list.begin(), list.end(), t));
+                    }
+                }
+                continue;
+            }
+            const std::array<Vec3, 3> after = moved(t, u, v);
+            error_[t] = meter_.triangle_error_px(after, 0.0);
+            reached = std::max(reached, error_[t]);
+            for (std::uint32_t& w : triangles_[t]) {
+                if (w == u) {
+                    w = v;
+                }
+            }
+            vertex_triangles_[v].push_back(t);
+            grid_.insert(t, after);
+        }
+        vertex_triangles_[u].clear();
+        // Every vertex whose star changed gets new candidates.
+        std::vector<std::uint32_t> touched = neighbours(v);
+        touched.push_back(v);
+        for (const std::uint32_t w : touched) {
+            ++stamp_[w];
+        }
+        for (const std::uint32_t w : touched) {
+            push_candidates(w);
+        }
+    }
+
+    const std::vector<Vec3>& positions_;
+    const SliceErrorMeter& meter_;
+    const CollapseOptions& options_;
+    TriangleGrid grid_;
+    std::vector<std::uint32_t> global_;  ///< local vertex -> global id
+    std::vector<bool> locked_;
+    std::vector<std::uint32_t> stamp_;
+    std::vector<std::vector<std::uint32_t>> vertex_triangles_;
+    std::vector<Tri> triangles_;  ///< local ids
+    std::vector<bool> alive_;
+    std::vector<double> error_;
+    std::size_t alive_count_ = 0;
+    std::vector<Tri> obstacles_;  ///< global ids
+    std::priority_queue<Candidate> queue_;
+    std::vector<std::uint32_t> seen_;
+    std::uint32_t query_ = 0;
+};
+
+}  // namespace
+
+CollapseResult collapse_edges(const CollapseProblem& problem,
+                              const SliceErrorMeter& meter,
+                              const CollapseOptions& options) {
+    if (problem.positions == nullptr) {
+        throw Error(ErrorCode::Internal, "edge collapse: no positions");
+    }
+    Collapser collapser(problem, meter, options);
+    return collapser.run();
+}
+
+}  // namespace strata

@@ -1,0 +1,65 @@
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include "core/types.h"
+#include "simplify/slice_error.h"
+
+namespace strata {
+
+/// Options of `collapse_edges`.
+struct CollapseOptions {
+    /// Stop once this many triangles or fewer remain.
+    std::size_t target_triangles = 0;
+    /// Never perform a collapse whose error bound (SliceErrorMeter, px) exceeds this.
+    double max_error_px = std::numeric_limits<double>::infinity();
+    /// Refuse collapses that turn a triangle's normal by more than acos(min_normal_cos)
+    /// (0.1: about 84 degrees); 180-degree turns (flips) are always refused.
+    double min_normal_cos = 0.1;
+};
+
+/// A piece of a closed surface to simplify, plus what it must not run into. Vertex ids index
+/// `positions`, which collapses never change (half-edge collapses create no vertex).
+struct CollapseProblem {
+    const std::vector<Vec3>* positions = nullptr;
+    std::vector<std::array<std::uint32_t, 3>> triangles;  ///< the piece, outward CCW
+    std::vector<double> triangle_error_px;  ///< current error bound of each triangle (px)
+    /// Vertices that must stay where they are with their edges to other locked vertices: the
+    /// piece's boundary with the rest of the surface. Sorted.
+    std::vector<std::uint32_t> locked;
+    /// Triangles outside the piece that may be shown together with it (in some cut of the
+    /// multiresolution model): no triangle the simplification creates may intersect them.
+    std::vector<std::array<std::uint32_t, 3>> obstacles;
+};
+
+/// What `collapse_edges` did.
+struct CollapseResult {
+    std::vector<std::array<std::uint32_t, 3>> triangles;  ///< the simplified piece
+    std::vector<double> triangle_error_px;                ///< bound of each of them (px)
+    /// The collapses in order: vertex `first` removed, its triangles moved to vertex `second`.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> collapses;
+    double max_error_px = 0.0;  ///< largest entry of triangle_error_px
+};
+
+/// Simplifies a piece of a closed, oriented 2-manifold by half-edge collapses (paper section 7:
+/// no new vertices; the cheapest collapse first, cost = largest error bound of the triangles it
+/// creates, measured against the original contours by `meter`).
+///
+/// Preserved: the locked vertices and every edge between two of them (so the piece still fits
+/// any neighbour that kept the same boundary), manifoldness and orientation (link condition,
+/// no vertex left with fewer than 3 edges), topology (genus, components), no triangle turned by
+/// more than allowed, and embedding: no new triangle intersects a triangle of the piece or an
+/// obstacle (exact predicates). Not preserved: volume, normals, vertex count.
+/// Deterministic: ties are broken by vertex ids.
+/// \throw Error{InvalidInput} when a triangle refers to a vertex outside `positions` or an edge is
+///        used by more than two triangles of the piece.
+CollapseResult collapse_edges(const CollapseProblem& problem,
+                              const SliceErrorMeter& meter,
+                              const CollapseOptions& options);
+
+}  // namespace strata

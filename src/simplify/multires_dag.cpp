@@ -1,0 +1,516 @@
+// The multiresolution model as a DAG of cluster groups (DESIGN.md section 4; the structure of
+// Nexus, Cignoni et al. "Batched multi triangulation", IEEE Vis 2005, and of Nanite, Karis,
+// "Nanite: a deep dive", SIGGRAPH 2021), with the paper's error-bounded edge collapses (section
+// 7) inside each group. Selective refinement (paper section 6.2) becomes the choice of a cut.
+#include "simplify/multires_dag.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <string>
+#include <unordered_map>
+
+#include "core/error.h"
+#include "simplify/edge_collapse.h"
+
+namespace strata {
+
+namespace {
+
+using Tri = std::array<std::uint32_t, 3>;
+
+struct Box {
+    Vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+            std::numeric_limits<double>::infinity()};
+    Vec3 hi{-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+            -std::numeric_limits<double>::infinity()};
+
+    void add(const Vec3& p) {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], p[a]);
+            hi[a] = std::max(hi[a], p[a]);
+        }
+    }
+    bool overlaps(const Box& o) const {
+        for (int a = 0; a < 3; ++a) {
+            if (hi[a] < o.lo[a] || o.hi[a] < lo[a]) {
+                return false;
+            }
+        }
+        return true;
+    }
+};
+
+Vec3 centroid(const std::vector<Vec3>& positions, const Tri& t) {
+    return (1.0 / 3.0) * (positions[t[0]] + positions[t[1]] + positions[t[2]]);
+}
+
+/// Splits triangles [begin, end) of `items` into `parts` spatially compact sets by recursive
+/// bisection at the median centroid along the longest axis.
+void bisect(const std::vector<Vec3>& positions,
+            std::vector<Tri>& items,
+            std::size_t begin,
+            std::size_t end,
+            std::size_t parts,
+            std::vector<std::vector<Tri>>& out) {
+    if (parts <= 1 || end - begin <= 1) {
+        out.emplace_back(items.begin() + std::ptrdiff_t(begin),
+                         items.begin() + std::ptrdiff_t(end));
+        return;
+    }
+    Box box;
+    for (std::size_t i = begin; i < end; ++i) {
+        box.add(centroid(positions, items[i]));
+    }
+    int axis = 0;
+    for (int a = 1; a < 3; ++a) {
+        if (box.hi[a] - box.lo[a] > box.hi[axis] - box.lo[axis]) {
+            axis = a;
+        }
+    }
+    const std::size_t left_parts = parts / 2;
+    const std::size_t mid = begin + (end - begin) * left_parts / parts;
+    std::nth_element(items.begin() + std::ptrdiff_t(begin), items.begin() + std::ptrdiff_t(mid),
+                     items.begin() + std::ptrdiff_t(end), [&](const Tri& a, const Tri& b) {
+                         const double ca = centroid(positions, a)[axis];
+                         const double cb = centroid(positions, b)[axis];
+                         return ca != cb ? ca < cb : a < b;
+                     });
+    bisect(positions, items, begin, mid, left_parts, out);
+    bisect(positions, items, mid, end, parts - left_parts, out);
+}
+
+Sphere bounding_sphere(const std::vector<Vec3>& positions, const std::vector<std::uint32_t>& ids) {
+    Box box;
+    for (const std::uint32_t v : ids) {
+        box.add(positions[v]);
+    }
+    Sphere s;
+    if (ids.empty()) {
+        return s;
+    }
+    s.center = 0.5 * (box.lo + box.hi);
+    for (const std::uint32_t v : ids) {
+        s.radius = std::max(s.radius, norm(positions[v] - s.center));
+    }
+    return s;
+}
+
+/// The smallest sphere around `a` that also contains `b` (not the minimal enclosing sphere).
+Sphere enclose(const Sphere& a, const Sphere& b) {
+    const double d = norm(b.center - a.center);
+    if (d + b.radius <= a.radius) {
+        return a;
+    }
+    if (d + a.radius <= b.radius) {
+        return b;
+    }
+    const double radius = 0.5 * (d + a.radius + b.radius);
+    const Vec3 center = a.center + ((radius - a.radius) / d) * (b.center - a.center);
+    return {center, radius * (1.0 + 1e-12) + 1e-12};
+}
+
+class DagBuilder {
+public:
+    DagBuilder(const TriMesh& surface,
+               const SliceErrorMeter& meter,
+               double base_error_px,
+               const MultiresOptions& options)
+        : meter_(meter), options_(options) {
+        mesh_.positions = surface.positions;
+        mesh_.full_resolution_error_px = base_error_px;
+        for (const Tri& t : surface.triangles) {
+            for (const std::uint32_t v : t) {
+                if (v >= surface.positions.size()) {
+                    throw Error(ErrorCode::InvalidInput,
+                                "multiresolution: triangle vertex " + std::to_string(v) +
+                                    " out of range (" + std::to_string(surface.positions.size()) +
+                                    " vertices)");
+                }
+            }
+        }
+        std::vector<Tri> all = surface.triangles;
+        for (std::vector<Tri>& part : split(all)) {
+            frontier_.push_back(add_cluster(0, -1, std::move(part)));
+        }
+    }
+
+    MultiresMesh run() {
+        for (std::uint32_t level = 1; level <= options_.max_levels; ++level) {
+            if (frontier_.size() <= 1 && frontier_triangles() <= options_.cluster_triangles) {
+                break;
+            }
+            const std::vector<std::vector<std::uint32_t>> groups = make_groups();
+            std::vector<std::uint32_t> next;
+            bool progress = false;
+            for (const std::vector<std::uint32_t>& members : groups) {
+                if (!simplify_group(level, members, next)) {
+                    next.insert(next.end(), members.begin(), members.end());
+                } else {
+                    progress = true;
+                }
+            }
+            std::sort(next.begin(), next.end());
+            frontier_ = std::move(next);
+            if (options_.progress) {
+                options_.progress("simplify levels", level, options_.max_levels);
+            }
+            if (!progress) {
+                break;
+            }
+        }
+        return std::move(mesh_);
+    }
+
+private:
+    std::size_t frontier_triangles() const {
+        std::size_t n = 0;
+        for (const std::uint32_t c : frontier_) {
+            n += mesh_.clusters[c].triangles.size();
+        }
+        return n;
+    }
+
+    std::vector<std::vector<Tri>> split(std::vector<Tri>& triangles) const {
+        const std::size_t size = std::max<std::size_t>(options_.cluster_triangles, 1);
+        const std::size_t parts = std::max<std::size_t>(1, (triangles.size() + size / 2) / size);
+        std::vector<std::vector<Tri>> out;
+        bisect(mesh_.positions, triangles, 0, triangles.size(), parts, out);
+        return out;
+    }
+
+    std::uint32_t add_cluster(std::uint32_t level, std::int32_t producer, std::vector<Tri> tris) {
+        MultiresCluster c;
+        c.level = level;
+        c.producer = producer;
+        for (const Tri& t : tris) {
+            c.vertices.insert(c.vertices.end(), t.begin(), t.end());
+        }
+        std::sort(c.vertices.begin(), c.vertices.end());
+        c.vertices.erase(std::unique(c.vertices.begin(), c.vertices.end()), c.vertices.end());
+        c.triangles.reserve(tris.size());
+        Box box;
+        for (const Tri& t : tris) {
+            Tri local{};
+            for (int i = 0; i < 3; ++i) {
+                local[i] =
+                    std::uint32_t(std::lower_bound(c.vertices.begin(), c.vertices.end(), t[i]) -
+                                  c.vertices.begin());
+            }
+            c.triangles.push_back(local);
+        }
+        for (const std::uint32_t v : c.vertices) {
+            box.add(mesh_.positions[v]);
+        }
+        c.bounds = bounding_sphere(mesh_.positions, c.vertices);
+        mesh_.clusters.push_back(std::move(c));
+        boxes_.push_back(box);
+        return std::uint32_t(mesh_.clusters.size() - 1);
+    }
+
+    std::vector<Tri> global_triangles(std::uint32_t c) const {
+        const MultiresCluster& cluster = mesh_.clusters[c];
+        std::vector<Tri> out;
+        out.reserve(cluster.triangles.size());
+        for (const Tri& t : cluster.triangles) {
+            out.push_back({cluster.vertices[t[0]], cluster.vertices[t[1]], cluster.vertices[t[2]]});
+        }
+        return out;
+    }
+
+    double cluster_error(std::uint32_t c) const {
+        const std::int32_t p = mesh_.clusters[c].producer;
+        return p < 0 ? mesh_.full_resolution_error_px : mesh_.groups[std::size_t(p)].error_px;
+    }
+
+    /// Groups of about `group_clusters` adjacent frontier clusters: rounds of greedy matching on
+    /// shared edges, edges between clusters of different producers weighing more (so borders of
+    /// the last level's groups fall inside the new ones).
+    std::vector<std::vector<std::uint32_t>> make_groups() const {
+        // unit of each frontier cluster (index into `units`)
+        std::vector<std::vector<std::uint32_t>> units;
+        std::unordered_map<std::uint32_t, std::uint32_t> unit_of;
+        for (const std::uint32_t c : frontier_) {
+            unit_of[c] = std::uint32_t(units.size());
+            units.push_back({c});
+        }
+        // shared edge weights between clusters
+        std::unordered_map<std::uint64_t, std::uint32_t> edge_owner;
+        std::map<std::pair<std::uint32_t, std::uint32_t>, double> weight;
+        for (const std::uint32_t c : frontier_) {
+            for (const Tri& t : global_triangles(c)) {
+                for (int i = 0; i < 3; ++i) {
+                    const std::uint32_t a = std::min(t[i], t[(i + 1) % 3]);
+                    const std::uint32_t b = std::max(t[i], t[(i + 1) % 3]);
+                    const std::uint64_t key = std::uint64_t(a) << 32 | b;
+                    const auto [it, inserted] = edge_owner.emplace(key, c);
+                    if (!inserted && it->second != c) {
+                        const std::uint32_t o = it->second;
+                        const bool different =
+                            mesh_.clusters[c].producer < 0 ||
+                            mesh_.clusters[c].producer != mesh_.clusters[o].producer;
+                        weight[{std::min(c, o), std::max(c, o)}] += different ? 4.0 : 1.0;
+                    }
+                }
+            }
+        }
+        for (std::size_t size = 1; size < options_.group_clusters; size *= 2) {
+            // weights between current units
+            std::map<std::pair<std::uint32_t, std::uint32_t>, double> unit_weight;
+            for (const auto& [pair, w] : weight) {
+                const std::uint32_t a = unit_of.at(pair.first);
+                const std::uint32_t b = unit_of.at(pair.second);
+                if (a != b) {
+                    unit_weight[{std::min(a, b), std::max(a, b)}] += w;
+                }
+            }
+            std::vector<std::pair<double, std::pair<std::uint32_t, std::uint32_t>>> order;
+            for (const auto& [pair, w] : unit_weight) {
+                order.push_back({-w, pair});
+            }
+            std::sort(order.begin(), order.end());
+            std::vector<bool> matched(units.size(), false);
+            std::vector<std::vector<std::uint32_t>> merged;
+            std::vector<std::uint32_t> new_index(units.size(), 0);
+            for (const auto& [w, pair] : order) {
+                if (matched[pair.first] || matched[pair.second]) {
+                    continue;
+                }
+                matched[pair.first] = matched[pair.second] = true;
+                std::vector<std::uint32_t> both = units[pair.first];
+                both.insert(both.end(), units[pair.second].begin(), units[pair.second].end());
+                new_index[pair.first] = new_index[pair.second] = std::uint32_t(merged.size());
+                merged.push_back(std::move(both));
+            }
+            for (std::uint32_t u = 0; u < units.size(); ++u) {
+                if (!matched[u]) {
+                    new_index[u] = std::uint32_t(merged.size());
+                    merged.push_back(units[u]);
+                }
+            }
+            for (auto& [c, u] : unit_of) {
+                u = new_index[u];
+            }
+            units = std::move(merged);
+        }
+        for (std::vector<std::uint32_t>& u : units) {
+            std::sort(u.begin(), u.end());
+        }
+        std::sort(units.begin(), units.end());
+        return units;
+    }
+
+    /// Marks `members` and every cluster below them in `below_` with `stamp`.
+    void mark_descendants(const std::vector<std::uint32_t>& members, std::uint32_t stamp) {
+        below_.resize(mesh_.clusters.size(), 0);
+        std::vector<std::uint32_t> stack = members;
+        while (!stack.empty()) {
+            const std::uint32_t c = stack.back();
+            stack.pop_back();
+            if (below_[c] == stamp) {
+                continue;
+            }
+            below_[c] = stamp;
+            const std::int32_t p = mesh_.clusters[c].producer;
+            if (p >= 0) {
+                const MultiresGroup& g = mesh_.groups[std::size_t(p)];
+                stack.insert(stack.end(), g.consumed.begin(), g.consumed.end());
+            }
+        }
+    }
+
+    /// Simplifies one group; appends its produced clusters to `next`. False when it did not
+    /// shrink enough (nothing is recorded then).
+    bool simplify_group(std::uint32_t level,
+                        const std::vector<std::uint32_t>& members,
+                        std::vector<std::uint32_t>& next) {
+        CollapseProblem problem;
+        problem.positions = &mesh_.positions;
+        double children_error = 0.0;
+        Box box;
+        for (const std::uint32_t c : members) {
+            const double e = cluster_error(c);
+            children_error = std::max(children_error, e);
+            for (const Tri& t : global_triangles(c)) {
+                problem.triangles.push_back(t);
+                problem.triangle_error_px.push_back(e);
+                for (const std::uint32_t v : t) {
+                    box.add(mesh_.positions[v]);
+                }
+            }
+        }
+        const std::size_t before = problem.triangles.size();
+        if (before < 8) {
+            return false;
+        }
+        // Border: vertices of edges used once within the group.
+        std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_use;
+        for (const Tri& t : problem.triangles) {
+            for (int i = 0; i < 3; ++i) {
+                const std::uint32_t a = std::min(t[i], t[(i + 1) % 3]);
+                const std::uint32_t b = std::max(t[i], t[(i + 1) % 3]);
+                ++edge_use[{a, b}];
+            }
+        }
+        for (const auto& [edge, count] : edge_use) {
+            if (count == 1) {
+                problem.locked.push_back(edge.first);
+                problem.locked.push_back(edge.second);
+            }
+        }
+        std::sort(problem.locked.begin(), problem.locked.end());
+        problem.locked.erase(std::unique(problem.locked.begin(), problem.locked.end()),
+                             problem.locked.end());
+        // Obstacles: triangles of every cluster that can be drawn with this group's results
+        // (all but the group's own and those below it) near the group.
+        const std::uint32_t stamp = ++stamp_;
+        mark_descendants(members, stamp);
+        for (std::uint32_t c = 0; c < mesh_.clusters.size(); ++c) {
+            if (below_[c] == stamp || !boxes_[c].overlaps(box)) {
+                continue;
+            }
+            for (const Tri& t : global_triangles(c)) {
+                Box tb;
+                for (const std::uint32_t v : t) {
+                    tb.add(mesh_.positions[v]);
+                }
+                if (tb.overlaps(box)) {
+                    problem.obstacles.push_back(t);
+                }
+            }
+        }
+
+        CollapseOptions collapse;
+        collapse.target_triangles = before / 2;
+        collapse.max_error_px = options_.max_error_px;
+        CollapseResult result = collapse_edges(problem, meter_, collapse);
+        if (double(result.triangles.size()) > double(before) * (1.0 - options_.min_reduction)) {
+            return false;
+        }
+
+        MultiresGroup group;
+        group.level = level;
+        group.consumed = members;
+        group.error_px = std::max(result.max_error_px, children_error);
+        const std::int32_t id = std::int32_t(mesh_.groups.size());
+        // Where every vertex of the group goes: follow the collapses to the survivor.
+        std::unordered_map<std::uint32_t, std::uint32_t> onto;
+        for (const auto& [removed, kept] : result.collapses) {
+            onto[removed] = kept;
+        }
+        auto survivor = [&](std::uint32_t v) {
+            for (auto it = onto.find(v); it != onto.end(); it = onto.find(v)) {
+                v = it->second;
+            }
+            return v;
+        };
+        for (const std::uint32_t c : members) {
+            MultiresCluster& cluster = mesh_.clusters[c];
+            cluster.consumer = id;
+            cluster.coarse_vertices.resize(cluster.vertices.size());
+            for (std::size_t i = 0; i < cluster.vertices.size(); ++i) {
+                cluster.coarse_vertices[i] = survivor(cluster.vertices[i]);
+            }
+        }
+        mesh_.groups.push_back(group);
+        for (std::vector<Tri>& part : split(result.triangles)) {
+            const std::uint32_t c = add_cluster(level, id, std::move(part));
+            mesh_.groups[std::size_t(id)].produced.push_back(c);
+            next.push_back(c);
+        }
+        // Bounds: the produced and consumed clusters and every group below.
+        MultiresGroup& g = mesh_.groups[std::size_t(id)];
+        g.bounds = mesh_.clusters[g.produced.front()].bounds;
+        for (const std::uint32_t c : g.produced) {
+            g.bounds = enclose(g.bounds, mesh_.clusters[c].bounds);
+        }
+        for (const std::uint32_t c : g.consumed) {
+            const std::int32_t p = mesh_.clusters[c].producer;
+            g.bounds = enclose(
+                g.bounds, p >= 0 ? mesh_.groups[std::size_t(p)].bounds : mesh_.clusters[c].bounds);
+        }
+        return true;
+    }
+
+    const SliceErrorMeter& meter_;
+    const MultiresOptions& options_;
+    MultiresMesh mesh_;
+    std::vector<Box> boxes_;  ///< per cluster
+    std::vector<std::uint32_t> frontier_;
+    std::vector<std::uint32_t> below_;
+    std::uint32_t stamp_ = 0;
+};
+
+}  // namespace
+
+MultiresMesh build_multires_mesh(const TriMesh& surface,
+                                 const SliceErrorMeter& meter,
+                                 double full_resolution_error_px,
+                                 const MultiresOptions& options) {
+    DagBuilder builder(surface, meter, full_resolution_error_px, options);
+    return builder.run();
+}
+
+MultiresCut select_cut(const MultiresMesh& mesh,
+                       const std::function<bool(const MultiresGroup&)>& refine) {
+    // Groups come after their children: one pass makes "refined" closed upwards.
+    std::vector<bool> refined(mesh.groups.size(), false);
+    for (std::size_t g = 0; g < mesh.groups.size(); ++g) {
+        refined[g] = refine(mesh.groups[g]);
+    }
+    for (std::size_t g = 0; g < mesh.groups.size(); ++g) {
+        if (!refined[g]) {
+            continue;
+        }
+        for (const std::uint32_t c : mesh.groups[g].produced) {
+            const std::int32_t parent = mesh.clusters[c].consumer;
+            if (parent >= 0) {
+                refined[std::size_t(parent)] = true;
+            }
+        }
+    }
+    MultiresCut cut;
+    for (std::uint32_t c = 0; c < mesh.clusters.size(); ++c) {
+        const MultiresCluster& cluster = mesh.clusters[c];
+        const bool producer_refined =
+            cluster.producer >= 0 && refined[std::size_t(cluster.producer)];
+        const bool consumer_refined =
+            cluster.consumer < 0 || refined[std::size_t(cluster.consumer)];
+        if (!producer_refined && consumer_refined) {
+            cut.clusters.push_back(c);
+            cut.error_px =
+                std::max(cut.error_px, cluster.producer < 0
+                                           ? mesh.full_resolution_error_px
+                                           : mesh.groups[std::size_t(cluster.producer)].error_px);
+        }
+    }
+    return cut;
+}
+
+MultiresCut select_cut_by_error(const MultiresMesh& mesh, double max_error_px) {
+    return select_cut(mesh, [&](const MultiresGroup& g) { return g.error_px > max_error_px; });
+}
+
+TriMesh cut_mesh(const MultiresMesh& mesh, const MultiresCut& cut) {
+    TriMesh out;
+    std::unordered_map<std::uint32_t, std::uint32_t> index;
+    for (const std::uint32_t c : cut.clusters) {
+        const MultiresCluster& cluster = mesh.clusters[c];
+        for (const Tri& t : cluster.triangles) {
+            Tri o{};
+            for (int i = 0; i < 3; ++i) {
+                const std::uint32_t v = cluster.vertices[t[i]];
+                const auto [it, inserted] = index.emplace(v, std::uint32_t(out.positions.size()));
+                if (inserted) {
+                    out.positions.push_back(mesh.positions[v]);
+                }
+                o[i] = it->second;
+            }
+            out.triangles.push_back(o);
+        }
+    }
+    return out;
+}
+
+}  // namespace strata

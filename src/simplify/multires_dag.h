@@ -1,0 +1,122 @@
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <vector>
+
+#include "core/progress.h"
+#include "core/types.h"
+#include "mesh/tri_mesh.h"
+#include "simplify/slice_error.h"
+
+namespace strata {
+
+/// A ball: the bounding volume of clusters and groups.
+struct Sphere {
+    Vec3 center;
+    double radius = 0.0;
+};
+
+/// A patch of the surface at one level of detail: an ordinary indexed triangle list over a few
+/// of the model's vertices.
+struct MultiresCluster {
+    std::uint32_t level = 0;              ///< 0: full resolution
+    std::int32_t producer = -1;           ///< group that made it, -1 at full resolution
+    std::int32_t consumer = -1;           ///< group that replaces it by coarser clusters, -1: root
+    std::vector<std::uint32_t> vertices;  ///< ids into MultiresMesh::positions, increasing
+    std::vector<std::array<std::uint32_t, 3>> triangles;  ///< indices into `vertices`, CCW out
+    /// Per entry of `vertices`: the vertex (id into positions) it collapses to in the consumer's
+    /// coarse clusters (itself when it survives); empty for roots. Moving every vertex there
+    /// turns the consumer's fine clusters into its coarse ones (geomorphing).
+    std::vector<std::uint32_t> coarse_vertices;
+    Sphere bounds;  ///< contains the cluster's vertices
+};
+
+/// A refinement step: its coarse clusters (`produced`) replace its fine ones (`consumed`).
+struct MultiresGroup {
+    std::uint32_t level = 0;              ///< level of the produced clusters (>= 1)
+    std::vector<std::uint32_t> consumed;  ///< finer clusters, ids into MultiresMesh::clusters
+    std::vector<std::uint32_t> produced;  ///< coarser clusters
+    /// Error bound (px, slice space) of the produced clusters against the original contours,
+    /// made monotone: never below the error of any group that produced a consumed cluster.
+    double error_px = 0.0;
+    /// Contains the produced and consumed clusters and the bounds of every group below, so a
+    /// projected error (error / distance to the sphere) is monotone along the DAG too.
+    Sphere bounds;
+};
+
+/// The multiresolution model of one closed surface (DESIGN.md section 4): clusters of triangles
+/// at several levels and the groups (splits) between them, a DAG from the full-resolution clusters
+/// (level 0) to the roots (clusters no group consumes: the base mesh).
+///
+/// Cuts: choosing for every group whether it is refined, such that every group above a refined
+/// one (consuming a cluster it produced) is refined too, and drawing each cluster whose producer is
+/// not refined (or absent) and whose consumer is refined (or absent, for roots), gives a closed,
+/// manifold, outward surface with the topology of the full-resolution one and no self-intersection;
+/// its error bound is the largest error_px among the producers of the drawn clusters
+/// (`full_resolution_error_px` for level 0).
+struct MultiresMesh {
+    std::vector<Vec3> positions;  ///< every vertex (the full-resolution surface's), slice space
+    std::vector<MultiresCluster> clusters;
+    std::vector<MultiresGroup> groups;      ///< in creation order: a group's children come first
+    double full_resolution_error_px = 0.0;  ///< bound of the level-0 clusters
+
+    std::vector<std::uint32_t> roots() const {
+        std::vector<std::uint32_t> result;
+        for (std::uint32_t c = 0; c < clusters.size(); ++c) {
+            if (clusters[c].consumer < 0) {
+                result.push_back(c);
+            }
+        }
+        return result;
+    }
+};
+
+/// Options of `build_multires_mesh`.
+struct MultiresOptions {
+    std::size_t cluster_triangles = 1024;  ///< target triangles per cluster
+    std::size_t group_clusters = 4;        ///< clusters simplified together (a power of two)
+    /// A group is simplified until half its triangles remain; collapses above this bound (px) are
+    /// never made. The coarsest level is reached when no group can shrink by `min_reduction`.
+    double max_error_px = std::numeric_limits<double>::infinity();
+    double min_reduction = 0.15;  ///< least fraction of triangles a group must lose
+    std::uint32_t max_levels = 24;
+    ProgressFn progress;  ///< called per level ("simplify levels")
+};
+
+/// Builds the multiresolution model of `surface` (a closed, oriented, self-intersection-free
+/// surface in slice space, the triangulation stage's output for one label). Clusters are made by
+/// recursive bisection of triangle centroids; groups by greedy matching of adjacent clusters,
+/// preferring clusters of different parents so that old group borders end up inside; each group
+/// is simplified by `collapse_edges` with its outer border locked, against every existing
+/// triangle it could be drawn with. `full_resolution_error_px` is the bound the caller declares
+/// for the surface itself (the contour simplification tolerance achieved, e.g. 0.5 px).
+/// Deterministic. \throw Error{InvalidInput} when the surface is not an oriented manifold.
+MultiresMesh build_multires_mesh(const TriMesh& surface,
+                                 const SliceErrorMeter& meter,
+                                 double full_resolution_error_px,
+                                 const MultiresOptions& options);
+
+/// One cut of the model: the clusters to draw and the error bound they guarantee.
+struct MultiresCut {
+    std::vector<std::uint32_t> clusters;  ///< increasing cluster ids
+    double error_px = 0.0;                ///< largest producer error among them
+};
+
+/// The cut that refines every group for which `refine(group)` is true, and every group above a
+/// refined one (so any predicate gives a valid cut). Examples: uniform error, `error_px > tau`;
+/// region of interest, `error_px > (intersects(bounds, roi) ? tau_inside : tau)`.
+MultiresCut select_cut(const MultiresMesh& mesh,
+                       const std::function<bool(const MultiresGroup&)>& refine);
+
+/// The cut with error bound at most `max_error_px` and the fewest levels of refinement: every
+/// group whose error exceeds the bound is refined.
+MultiresCut select_cut_by_error(const MultiresMesh& mesh, double max_error_px);
+
+/// The triangles of a cut as one mesh (vertices shared between clusters merged by id).
+TriMesh cut_mesh(const MultiresMesh& mesh, const MultiresCut& cut);
+
+}  // namespace strata

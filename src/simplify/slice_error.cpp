@@ -1,0 +1,286 @@
+// Error of simplified triangles against the original contours, read from the slice distance
+// fields (Klein, Schilling, Strasser, section 7.1: the triangle's intersection with every slice
+// plane it spans is drawn into that slice's distance field; 7.2: stretches that cannot beat the
+// error already reached are skipped, since the distance grows by at most 1 px per px).
+//
+// The fields are sampled on the half-pixel grid and store, per node, the closest contour site.
+// Instead of trusting interpolated samples, every piece [a, b] of a segment is charged
+// max(|a - s|, |b - s|) for one site s: |p - s| is convex along the piece and s lies on the
+// contour, so this bounds dist(p, contour) for every p of the piece. Choosing s from the field's
+// nearest node makes the bound tight to a few hundredths of a pixel on short pieces, and a piece
+// may run as far as the disc of radius `known` around s reaches (the skipping).
+#include "simplify/slice_error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace strata {
+
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+/// Length of a piece that must be charged on its own (px).
+constexpr double kStepPx = 0.25;
+/// Least advance worth a disc step (px); shorter exits fall back to a charged piece.
+constexpr double kMinAdvancePx = 1e-3;
+/// Half the diagonal of a field cell: every point of a cell is this close to one of its corners.
+constexpr double kHalfCellDiagonalPx = 0.35355339059327379;
+/// Largest gap between a contour point and its nearest site (half the sqrt(1/2) chamfer).
+constexpr double kSiteGapPx = 0.35355339059327379;
+/// A cell whose four corners are this deep inside lies inside the region entirely.
+constexpr double kInsideDepthPx = kHalfCellDiagonalPx + kSiteGapPx + 1e-9;
+/// Caps larger than this many field cells are refused (error infinity) rather than scanned.
+constexpr double kMaxCapCells = 4.0e6;
+
+double distance(Vec2 a, Vec2 b) {
+    return norm(a - b);
+}
+
+/// Sutherland-Hodgman clip of a convex polygon to x >= lo (axis 0) or y >= lo (axis 1), or to
+/// <= hi when `keep_below`.
+std::vector<Vec2> clip(const std::vector<Vec2>& polygon, int axis, double bound, bool keep_below) {
+    std::vector<Vec2> out;
+    const std::size_t n = polygon.size();
+    auto coord = [&](Vec2 p) { return axis == 0 ? p.x : p.y; };
+    auto inside = [&](Vec2 p) { return keep_below ? coord(p) <= bound : coord(p) >= bound; };
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec2 a = polygon[i];
+        const Vec2 b = polygon[(i + 1) % n];
+        const bool ina = inside(a);
+        const bool inb = inside(b);
+        if (ina) {
+            out.push_back(a);
+        }
+        if (ina != inb) {
+            const double t = (bound - coord(a)) / (coord(b) - coord(a));
+            Vec2 p = a + t * (b - a);
+            (axis == 0 ? p.x : p.y) = bound;
+            out.push_back(p);
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+SliceErrorMeter::SliceErrorMeter(const SliceContours& contours,
+                                 const std::vector<SliceDistanceFields>& fields,
+                                 std::uint16_t label,
+                                 double slice_spacing_px)
+    : spacing_(slice_spacing_px) {
+    slices_.resize(fields.size());
+    for (std::size_t k = 0; k < fields.size(); ++k) {
+        for (const DistanceField& field : fields[k].fields) {
+            if (field.label != label || field.sites.empty()) {
+                continue;
+            }
+            Slice& slice = slices_[k];
+            slice.field = &field;
+            slice.sites.reserve(field.sites.size());
+            for (const ContourSite& site : field.sites) {
+                slice.sites.push_back(site_position(contours.slices[k], site));
+            }
+        }
+    }
+}
+
+std::uint32_t SliceErrorMeter::nearest_node(const Slice& slice, Vec2 p) const {
+    const DistanceField& f = *slice.field;
+    const double fx = std::round((p.x - f.origin_x) / DistanceField::kCellPx);
+    const double fy = std::round((p.y - f.origin_y) / DistanceField::kCellPx);
+    const double i = std::clamp(fx, 0.0, double(f.nx - 1));
+    const double j = std::clamp(fy, 0.0, double(f.ny - 1));
+    return static_cast<std::uint32_t>(f.node_index(std::uint32_t(i), std::uint32_t(j)));
+}
+
+double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px) const {
+    if (k >= slices_.size() || slices_[k].field == nullptr) {
+        return kInfinity;
+    }
+    const Slice& slice = slices_[k];
+    const DistanceField& f = *slice.field;
+    double reached = known_px;
+    const double length = distance(p, q);
+    if (!(length < kInfinity)) {
+        return kInfinity;
+    }
+    const Vec2 dir = length > 0.0 ? (1.0 / length) * (q - p) : Vec2{1.0, 0.0};
+
+    // The smallest bound over the sites of the four field nodes around a for the piece [a, b].
+    auto charge = [&](Vec2 a, Vec2 b) {
+        const double cx = (a.x - f.origin_x) / DistanceField::kCellPx;
+        const double cy = (a.y - f.origin_y) / DistanceField::kCellPx;
+        const double i0 = std::clamp(std::floor(cx), 0.0, double(f.nx - 1));
+        const double j0 = std::clamp(std::floor(cy), 0.0, double(f.ny - 1));
+        const double i1 = std::min(i0 + 1.0, double(f.nx - 1));
+        const double j1 = std::min(j0 + 1.0, double(f.ny - 1));
+        double best = kInfinity;
+        for (const double i : {i0, i1}) {
+            for (const double j : {j0, j1}) {
+                const Vec2 s =
+                    slice.sites[f.closest[f.node_index(std::uint32_t(i), std::uint32_t(j))]];
+                best = std::min(best, std::max(distance(a, s), distance(b, s)));
+            }
+        }
+        return best;
+    };
+
+    double t = 0.0;
+    for (;;) {
+        const Vec2 a = p + t * dir;
+        if (t >= length) {
+            reached = std::max(reached, charge(q, q));
+            break;
+        }
+        const Vec2 s = slice.sites[f.closest[nearest_node(slice, a)]];
+        const Vec2 w = a - s;
+        const double c = dot(w, w) - reached * reached;
+        if (c <= 0.0) {
+            // a lies in the disc of radius `reached` around s: the piece up to the disc's far side
+            // cannot exceed the error already reached.
+            const double wd = dot(w, dir);
+            const double h = -wd + std::sqrt(std::max(0.0, wd * wd - c));
+            if (h >= kMinAdvancePx) {
+                if (t + h >= length) {
+                    break;  // q lies in the disc too
+                }
+                t += h;
+                continue;
+            }
+        }
+        const double h = std::min(kStepPx, length - t);
+        const Vec2 b = p + (t + h) * dir;
+        reached = std::max(reached, charge(a, b));
+        t += h;
+        if (h < kStepPx) {
+            break;
+        }
+    }
+    return reached;
+}
+
+double SliceErrorMeter::cap_error_px(std::uint32_t k, const std::array<Vec2, 3>& triangle) const {
+    if (k >= slices_.size() || slices_[k].field == nullptr) {
+        return kInfinity;
+    }
+    const Slice& slice = slices_[k];
+    const DistanceField& f = *slice.field;
+    double x0 = kInfinity, y0 = kInfinity, x1 = -kInfinity, y1 = -kInfinity;
+    for (const Vec2& v : triangle) {
+        if (!std::isfinite(v.x) || !std::isfinite(v.y)) {
+            return kInfinity;
+        }
+        x0 = std::min(x0, v.x);
+        y0 = std::min(y0, v.y);
+        x1 = std::max(x1, v.x);
+        y1 = std::max(y1, v.y);
+    }
+    const double c = DistanceField::kCellPx;
+    const double ci0 = std::floor((x0 - f.origin_x) / c);
+    const double ci1 = std::floor((x1 - f.origin_x) / c);
+    const double cj0 = std::floor((y0 - f.origin_y) / c);
+    const double cj1 = std::floor((y1 - f.origin_y) / c);
+    if ((ci1 - ci0 + 1) * (cj1 - cj0 + 1) > kMaxCapCells) {
+        return kInfinity;
+    }
+    const std::vector<Vec2> polygon(triangle.begin(), triangle.end());
+    double worst = 0.0;
+    for (double cj = cj0; cj <= cj1; ++cj) {
+        const double ya = f.origin_y + cj * c;
+        std::vector<Vec2> row = clip(clip(polygon, 1, ya, false), 1, ya + c, true);
+        if (row.empty()) {
+            continue;
+        }
+        for (double ci = ci0; ci <= ci1; ++ci) {
+            const double xa = f.origin_x + ci * c;
+            const std::vector<Vec2> piece = clip(clip(row, 0, xa, false), 0, xa + c, true);
+            if (piece.empty()) {
+                continue;
+            }
+            // The four corner nodes (clamped to the window).
+            bool deep_inside = true;
+            double best = kInfinity;
+            for (const double di : {0.0, 1.0}) {
+                for (const double dj : {0.0, 1.0}) {
+                    const double ni = ci + di;
+                    const double nj = cj + dj;
+                    const bool in_window = ni >= 0 && nj >= 0 && ni < f.nx && nj < f.ny;
+                    const std::uint32_t i = std::uint32_t(std::clamp(ni, 0.0, double(f.nx - 1)));
+                    const std::uint32_t j = std::uint32_t(std::clamp(nj, 0.0, double(f.ny - 1)));
+                    const std::size_t node = f.node_index(i, j);
+                    if (!in_window || f.distance_px[node] > -kInsideDepthPx) {
+                        deep_inside = false;
+                    }
+                    const Vec2 s = slice.sites[f.closest[node]];
+                    double far = 0.0;
+                    for (const Vec2& v : piece) {
+                        far = std::max(far, distance(v, s));
+                    }
+                    best = std::min(best, far);
+                }
+            }
+            if (!deep_inside) {
+                worst = std::max(worst, best);
+            }
+        }
+    }
+    return worst;
+}
+
+double SliceErrorMeter::triangle_error_px(const std::array<Vec3, 3>& triangle,
+                                          double known_px) const {
+    double zmin = kInfinity, zmax = -kInfinity;
+    for (const Vec3& v : triangle) {
+        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+            return kInfinity;
+        }
+        zmin = std::min(zmin, v.z);
+        zmax = std::max(zmax, v.z);
+    }
+    // note: the same "in the plane" rule as the slice sections of the tests.
+    auto on_plane = [](double z, double plane) {
+        return std::abs(z - plane) <= 1e-9 * std::max(1.0, std::abs(plane));
+    };
+    double reached = known_px;
+    const double k0 = std::ceil(zmin / spacing_ - 1e-9);
+    const double k1 = std::floor(zmax / spacing_ + 1e-9);
+    for (double kk = std::max(k0, 0.0); kk <= k1; ++kk) {
+        const double plane = kk * spacing_;
+        if (kk >= double(slices_.size())) {
+            break;  // no input slice there
+        }
+        const std::uint32_t k = static_cast<std::uint32_t>(kk);
+        std::array<bool, 3> in{};
+        int count = 0;
+        for (int i = 0; i < 3; ++i) {
+            in[i] = on_plane(triangle[i].z, plane);
+            count += in[i];
+        }
+        if (count == 3) {
+            reached = std::max(reached, cap_error_px(k, {Vec2{triangle[0].x, triangle[0].y},
+                                                         Vec2{triangle[1].x, triangle[1].y},
+                                                         Vec2{triangle[2].x, triangle[2].y}}));
+            continue;
+        }
+        Vec2 ends[3];
+        int n = 0;
+        for (int i = 0; i < 3; ++i) {
+            const Vec3& a = triangle[i];
+            const Vec3& b = triangle[(i + 1) % 3];
+            if (in[i]) {
+                ends[n++] = {a.x, a.y};
+            } else if (!in[(i + 1) % 3] && (a.z - plane) * (b.z - plane) < 0.0) {
+                const double t = (plane - a.z) / (b.z - a.z);
+                ends[n++] = {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)};
+            }
+        }
+        if (n == 0) {
+            continue;  // only within the tolerance of the plane's rounding
+        }
+        reached = std::max(reached, segment_error_px(k, ends[0], ends[n == 1 ? 0 : 1], reached));
+    }
+    return reached;
+}
+
+}  // namespace strata

@@ -1,0 +1,65 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "contours/slice_contours.h"
+#include "core/types.h"
+#include "distance/distance_field.h"
+
+namespace strata {
+
+/// Measures how far triangles of one label's surface stray from that label's original contours
+/// (paper section 7.1), in slice space: x, y in px on the contour grid, z = k * d for slice k.
+///
+/// The error of a triangle is the largest, over the input slice planes z = k d it meets, of:
+/// - the distance from its intersection with the plane (a segment, an edge or a point) to the
+///   original contour of slice k, read along the segment from slice k's distance field;
+/// - for a triangle lying in the plane (a planar cap): the largest distance of its points from
+///   the inside region of slice k (points inside count 0).
+/// Every value is an upper bound, never an estimate: a piece of segment is charged
+/// max(|a - s|, |b - s|) for a contour site s (a point on the original contour) taken from the
+/// field's closest-site map, which bounds the distance of every point of the piece from the
+/// contour. Pieces are as long as the disc of radius `known_px` around their site allows (the
+/// skipping of section 7.2, generalised: with the error already reached, whole stretches are
+/// covered at once), else 0.25 px. Points outside the field's window use the sites of the nearest
+/// window nodes, which still bound them. Planes where the label has no field give infinity.
+/// Thread-safe (const methods only read).
+class SliceErrorMeter {
+public:
+    /// `fields`: the distance stage's output (one entry per slice); `contours`: the contour stage's
+    /// (site positions); `slice_spacing_px`: d. The meter keeps pointers into `fields`.
+    SliceErrorMeter(const SliceContours& contours,
+                    const std::vector<SliceDistanceFields>& fields,
+                    std::uint16_t label,
+                    double slice_spacing_px);
+
+    /// max(known_px, error bound of the triangle) in px; see the class comment. Stretches that
+    /// cannot exceed `known_px` are skipped, so a good `known_px` (the error already reached by
+    /// the caller) makes this fast.
+    double triangle_error_px(const std::array<Vec3, 3>& triangle, double known_px = 0.0) const;
+
+    /// max(known_px, error bound of the segment pq lying in the plane of slice k): its distance
+    /// from the contour of slice k.
+    double segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px = 0.0) const;
+
+    /// Error bound (px) of triangle abc lying in the plane of slice k: distance to its inside.
+    double cap_error_px(std::uint32_t k, const std::array<Vec2, 3>& triangle) const;
+
+    double slice_spacing_px() const { return spacing_; }
+    std::uint32_t slice_count() const { return static_cast<std::uint32_t>(slices_.size()); }
+
+private:
+    struct Slice {
+        const DistanceField* field = nullptr;  ///< null: label absent on this slice
+        std::vector<Vec2> sites;               ///< position of every site of `field`
+    };
+    /// The node nearest to p, clamped to the window.
+    std::uint32_t nearest_node(const Slice& slice, Vec2 p) const;
+
+    std::vector<Slice> slices_;
+    double spacing_ = 1.0;
+};
+
+}  // namespace strata

@@ -1,0 +1,140 @@
+#include "simplify/multires_dag.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/report.h"
+#include "mesh/mesh_checks.h"
+#include "mesh/self_intersection.h"
+#include "phantom/catalogue.h"
+#include "pipeline/reconstruct.h"
+#include "simplify/slice_error.h"
+
+namespace strata {
+namespace {
+
+using Tri = std::array<std::uint32_t, 3>;
+
+/// A triangle with its corners rotated so the smallest id comes first (orientation kept).
+Tri canonical(Tri t) {
+    while (t[0] > t[1] || t[0] > t[2]) {
+        t = {t[1], t[2], t[0]};
+    }
+    return t;
+}
+
+std::multiset<Tri> triangle_set(const MultiresMesh& mesh, const std::vector<std::uint32_t>& ids) {
+    std::multiset<Tri> out;
+    for (const std::uint32_t c : ids) {
+        const MultiresCluster& cluster = mesh.clusters[c];
+        for (const Tri& t : cluster.triangles) {
+            out.insert(canonical(
+                {cluster.vertices[t[0]], cluster.vertices[t[1]], cluster.vertices[t[2]]}));
+        }
+    }
+    return out;
+}
+
+struct Built {
+    Reconstruction reconstruction;
+    std::vector<MultiresMesh> models;  ///< per surface
+};
+
+Built build(const std::string& name, std::size_t cluster_triangles = 256) {
+    Built b;
+    const Phantom phantom = make_phantom(name);
+    Report report;
+    ReconstructOptions options;
+    b.reconstruction = reconstruct(phantom.stack, options, report);
+    for (const ObjectSurface& s : b.reconstruction.surfaces) {
+        const SliceErrorMeter meter(b.reconstruction.contours, b.reconstruction.fields, s.label,
+                                    b.reconstruction.slice_spacing_px);
+        MultiresOptions mo;
+        mo.cluster_triangles = cluster_triangles;
+        b.models.push_back(build_multires_mesh(s.mesh, meter, 0.5, mo));
+    }
+    return b;
+}
+
+void expect_valid_cut(const TriMesh& cut, const MeshReport& reference, const std::string& what) {
+    const MeshReport report = check_mesh(cut);
+    EXPECT_TRUE(is_closed_manifold(report))
+        << what << ": " << (report.problems.empty() ? "" : report.problems.front());
+    EXPECT_EQ(component_genera(report), component_genera(reference)) << what;
+    EXPECT_GT(report.signed_volume, 0.0) << what;
+    const SelfIntersections hits = find_self_intersections(cut, 5);
+    EXPECT_TRUE(hits.is_free()) << what << ": " << hits.pairs.size() << " pairs, "
+                                << hits.degenerate_triangles.size() << " degenerate";
+}
+
+TEST(MultiresDag, CutsOfTorusAreClosedWithTheRightGenus) {
+    const Built b = build("torus");
+    ASSERT_EQ(b.models.size(), 1u);
+    const MultiresMesh& m = b.models[0];
+    const MeshReport reference = check_mesh(b.reconstruction.surfaces[0].mesh);
+    EXPECT_GT(m.groups.size(), 2u);
+    std::vector<double> errors;
+    for (const MultiresGroup& g : m.groups) {
+        errors.push_back(g.error_px);
+    }
+    errors.push_back(0.0);
+    std::sort(errors.begin(), errors.end());
+    std::size_t previous = SIZE_MAX;
+    for (const double tau : errors) {
+        const MultiresCut cut = select_cut_by_error(m, tau);
+        EXPECT_LE(cut.error_px, std::max(tau, m.full_resolution_error_px));
+        const TriMesh mesh = cut_mesh(m, cut);
+        expect_valid_cut(mesh, reference, "tau " + std::to_string(tau));
+        EXPECT_LE(mesh.triangles.size(), previous);
+        previous = mesh.triangles.size();
+    }
+    std::cout << "torus: " << b.reconstruction.surfaces[0].mesh.triangles.size() << " -> "
+              << cut_mesh(m, select_cut_by_error(m, 1e9)).triangles.size() << " triangles, "
+              << m.groups.size() << " groups, root error " << errors.back() << " px\n";
+}
+
+TEST(MultiresDag, FinestCutIsTheFullResolutionSurface) {
+    const Built b = build("sphere");
+    const MultiresMesh& m = b.models[0];
+    const MultiresCut cut = select_cut_by_error(m, 0.0);
+    std::vector<std::uint32_t> level0;
+    for (std::uint32_t c = 0; c < m.clusters.size(); ++c) {
+        if (m.clusters[c].level == 0) {
+            level0.push_back(c);
+        }
+    }
+    EXPECT_EQ(cut.clusters, level0);
+    std::multiset<Tri> full;
+    for (const Tri& t : b.reconstruction.surfaces[0].mesh.triangles) {
+        full.insert(canonical(t));
+    }
+    EXPECT_EQ(triangle_set(m, cut.clusters), full);
+}
+
+TEST(MultiresDag, GeomorphReproducesCoarseClusters) {
+    const Built b = build("torus");
+    const MultiresMesh& m = b.models[0];
+    for (std::size_t g = 0; g < m.groups.size(); ++g) {
+        std::multiset<Tri> moved;
+        for (const std::uint32_t c : m.groups[g].consumed) {
+            const MultiresCluster& cluster = m.clusters[c];
+            for (const Tri& t : cluster.triangles) {
+                const Tri u{cluster.coarse_vertices[t[0]], cluster.coarse_vertices[t[1]],
+                            cluster.coarse_vertices[t[2]]};
+                if (u[0] != u[1] && u[1] != u[2] && u[0] != u[2]) {
+                    moved.insert(canonical(u));
+                }
+            }
+        }
+        EXPECT_EQ(moved, triangle_set(m, m.groups[g].produced)) << "group " << g;
+    }
+}
+
+}  // namespace
+}  // namespace strata
