@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <mutex>
 #include <utility>
 
 #include "core/parallel.h"
@@ -49,6 +50,20 @@ TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const
         }
     }
     return world;
+}
+
+double full_resolution_error_px(const SliceContours& contours, std::uint16_t label) {
+    double error = 0.0;
+    for (const SliceContourSet& set : contours.slices) {
+        for (const Contour& contour : set.contours) {
+            if (contour.label == label) {
+                for (const double d : contour.edge_deviation_px) {
+                    error = std::max(error, d);
+                }
+            }
+        }
+    }
+    return error;
 }
 
 void verify_surface(const SliceStack& stack, ObjectSurface& surface) {
@@ -130,6 +145,38 @@ Reconstruction reconstruct(const SliceStack& stack,
             if (!surface.verification.ok()) {
                 report.warn("verify", "label " + std::to_string(surface.label),
                             surface.verification.problem);
+            }
+        }
+    }
+    if (options.simplify) {
+        result.models.resize(result.surfaces.size());
+        MultiresOptions multires = options.multires;
+        std::vector<std::string> kept(result.surfaces.size());
+        std::size_t done = 0;
+        std::mutex progress_mutex;
+        parallel_for(result.surfaces.size(), options.threads, [&](std::size_t i) {
+            const ObjectSurface& surface = result.surfaces[i];
+            const SliceErrorMeter meter(result.contours, result.fields, surface.label,
+                                        result.slice_spacing_px);
+            MultiresOptions label_options = multires;
+            label_options.progress = nullptr;
+            if (surface.verification.done && !surface.verification.ok()) {
+                label_options.max_levels = 0;  // note: collapses assume a closed manifold
+                kept[i] = "surface failed verification; kept at full resolution only";
+            }
+            result.models[i] = build_multires_mesh(
+                surface.mesh, meter, full_resolution_error_px(result.contours, surface.label),
+                label_options);
+            if (options.progress) {
+                const std::lock_guard<std::mutex> lock(progress_mutex);
+                options.progress("simplify labels", ++done, result.surfaces.size());
+            }
+        });
+        clock.done("simplify");
+        for (std::size_t i = 0; i < kept.size(); ++i) {
+            if (!kept[i].empty()) {
+                report.warn("simplify", "label " + std::to_string(result.surfaces[i].label),
+                            kept[i]);
             }
         }
     }

@@ -10,6 +10,7 @@
 #include "distance/distance_field.h"
 #include "input/slice_stack.h"
 #include "medial/medial_axis.h"
+#include "simplify/multires_dag.h"
 #include "triangulate/surface.h"
 
 namespace strata {
@@ -23,6 +24,10 @@ struct ReconstructOptions {
     /// Check every surface after triangulation: manifold, outward, no self-intersection (exact),
     /// components and genus of the reference volume R. Failures become warnings.
     bool verify = true;
+    /// Build the multiresolution model of every surface (error-bounded simplification). A surface
+    /// that failed verification is kept at full resolution (one level) and a warning says so.
+    bool simplify = true;
+    MultiresOptions multires;
     unsigned threads = 0;  ///< worker threads of every stage, 0 = all cores
     ProgressFn progress;   ///< stage progress (may be empty)
 };
@@ -43,6 +48,10 @@ Vec3 slice_to_world(const SliceStack& stack, double slice_spacing_px, Vec3 p);
 /// reversed when the affine mirrors (negative determinant) so they still face outwards.
 TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const TriMesh& mesh);
 
+/// The error bound (px) of a label's full-resolution surface: the largest deviation of its
+/// simplified contours from the original ones (the surface meets every slice plane in them).
+double full_resolution_error_px(const SliceContours& contours, std::uint16_t label);
+
 /// Fills `surface.verification` (see ObjectSurface::Verification) against `stack`'s label.
 void verify_surface(const SliceStack& stack, ObjectSurface& surface);
 
@@ -52,6 +61,7 @@ struct Reconstruction {
     std::vector<SliceDistanceFields> fields;  ///< one per slice
     std::vector<MedialAxis> medial_axes;      ///< one per consecutive slice pair
     std::vector<ObjectSurface> surfaces;      ///< one closed surface per label, slice space
+    std::vector<MultiresMesh> models;         ///< per surface (when simplified), slice space
     double slice_spacing_px = 1.0;            ///< d of the slice-space surfaces
     std::vector<StageTiming> timings;
 };

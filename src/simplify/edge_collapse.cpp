@@ -425,6 +425,9 @@ private:
     }
 
     void apply(std::uint32_t u, std::uint32_t v) {
+        // note: only the stars of u's neighbours change (positions never move), so only their
+        // candidates need new costs.
+        std::vector<std::uint32_t> touched = neighbours(u);
         std::vector<std::uint32_t> star = vertex_triangles_[u];
         double reached = 0.0;
         for (const std::uint32_t t : star) {
@@ -451,9 +454,7 @@ private:
             grid_.insert(t, after);
         }
         vertex_triangles_[u].clear();
-        // Every vertex whose star changed gets new candidates.
-        std::vector<std::uint32_t> touched = neighbours(v);
-        touched.push_back(v);
+        ++stamp_[u];
         for (const std::uint32_t w : touched) {
             ++stamp_[w];
         }

@@ -37,26 +37,31 @@ double distance(Vec2 a, Vec2 b) {
     return norm(a - b);
 }
 
-/// Sutherland-Hodgman clip of a convex polygon to x >= lo (axis 0) or y >= lo (axis 1), or to
-/// <= hi when `keep_below`.
-std::vector<Vec2> clip(const std::vector<Vec2>& polygon, int axis, double bound, bool keep_below) {
-    std::vector<Vec2> out;
-    const std::size_t n = polygon.size();
+/// A convex polygon of at most 7 corners (a triangle clipped by up to four axis lines).
+struct Polygon {
+    std::array<Vec2, 8> p{};
+    int n = 0;
+};
+
+/// Sutherland-Hodgman clip of a convex polygon to coordinate `axis` >= bound, or <= bound when
+/// `keep_below`.
+Polygon clip(const Polygon& polygon, int axis, double bound, bool keep_below) {
+    Polygon out;
     auto coord = [&](Vec2 p) { return axis == 0 ? p.x : p.y; };
     auto inside = [&](Vec2 p) { return keep_below ? coord(p) <= bound : coord(p) >= bound; };
-    for (std::size_t i = 0; i < n; ++i) {
-        const Vec2 a = polygon[i];
-        const Vec2 b = polygon[(i + 1) % n];
+    for (int i = 0; i < polygon.n; ++i) {
+        const Vec2 a = polygon.p[i];
+        const Vec2 b = polygon.p[(i + 1) % polygon.n];
         const bool ina = inside(a);
         const bool inb = inside(b);
         if (ina) {
-            out.push_back(a);
+            out.p[out.n++] = a;
         }
         if (ina != inb) {
             const double t = (bound - coord(a)) / (coord(b) - coord(a));
             Vec2 p = a + t * (b - a);
             (axis == 0 ? p.x : p.y) = bound;
-            out.push_back(p);
+            out.p[out.n++] = p;
         }
     }
     return out;
@@ -87,8 +92,8 @@ SliceErrorMeter::SliceErrorMeter(const SliceContours& contours,
 
 std::uint32_t SliceErrorMeter::nearest_node(const Slice& slice, Vec2 p) const {
     const DistanceField& f = *slice.field;
-    const double fx = std::round((p.x - f.origin_x) / DistanceField::kCellPx);
-    const double fy = std::round((p.y - f.origin_y) / DistanceField::kCellPx);
+    const double fx = std::floor((p.x - f.origin_x) / DistanceField::kCellPx + 0.5);
+    const double fy = std::floor((p.y - f.origin_y) / DistanceField::kCellPx + 0.5);
     const double i = std::clamp(fx, 0.0, double(f.nx - 1));
     const double j = std::clamp(fy, 0.0, double(f.ny - 1));
     return static_cast<std::uint32_t>(f.node_index(std::uint32_t(i), std::uint32_t(j)));
@@ -107,15 +112,21 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
     }
     const Vec2 dir = length > 0.0 ? (1.0 / length) * (q - p) : Vec2{1.0, 0.0};
 
-    // The smallest bound over the sites of the four field nodes around a for the piece [a, b].
+    // The smallest bound over the sites of the four field nodes around a for the piece [a, b]
+    // (the nearest node's site first: when it stays within `reached` the piece is settled).
     auto charge = [&](Vec2 a, Vec2 b) {
+        const Vec2 near = slice.sites[f.closest[nearest_node(slice, a)]];
+        const double first = std::max(distance(a, near), distance(b, near));
+        if (first <= reached) {
+            return first;
+        }
         const double cx = (a.x - f.origin_x) / DistanceField::kCellPx;
         const double cy = (a.y - f.origin_y) / DistanceField::kCellPx;
         const double i0 = std::clamp(std::floor(cx), 0.0, double(f.nx - 1));
         const double j0 = std::clamp(std::floor(cy), 0.0, double(f.ny - 1));
         const double i1 = std::min(i0 + 1.0, double(f.nx - 1));
         const double j1 = std::min(j0 + 1.0, double(f.ny - 1));
-        double best = kInfinity;
+        double best = first;
         for (const double i : {i0, i1}) {
             for (const double j : {j0, j1}) {
                 const Vec2 s =
@@ -184,45 +195,60 @@ double SliceErrorMeter::cap_error_px(std::uint32_t k, const std::array<Vec2, 3>&
     if ((ci1 - ci0 + 1) * (cj1 - cj0 + 1) > kMaxCapCells) {
         return kInfinity;
     }
-    const std::vector<Vec2> polygon(triangle.begin(), triangle.end());
+    Polygon polygon;
+    polygon.n = 3;
+    std::copy(triangle.begin(), triangle.end(), polygon.p.begin());
     double worst = 0.0;
     for (double cj = cj0; cj <= cj1; ++cj) {
         const double ya = f.origin_y + cj * c;
-        std::vector<Vec2> row = clip(clip(polygon, 1, ya, false), 1, ya + c, true);
-        if (row.empty()) {
+        const Polygon row = clip(clip(polygon, 1, ya, false), 1, ya + c, true);
+        if (row.n == 0) {
             continue;
         }
-        for (double ci = ci0; ci <= ci1; ++ci) {
-            const double xa = f.origin_x + ci * c;
-            const std::vector<Vec2> piece = clip(clip(row, 0, xa, false), 0, xa + c, true);
-            if (piece.empty()) {
-                continue;
-            }
-            // The four corner nodes (clamped to the window).
+        // note: the row's x extent limits the cells to visit.
+        double rx0 = kInfinity, rx1 = -kInfinity;
+        for (int i = 0; i < row.n; ++i) {
+            rx0 = std::min(rx0, row.p[i].x);
+            rx1 = std::max(rx1, row.p[i].x);
+        }
+        const double ri0 = std::max(ci0, std::floor((rx0 - f.origin_x) / c));
+        const double ri1 = std::min(ci1, std::floor((rx1 - f.origin_x) / c));
+        for (double ci = ri0; ci <= ri1; ++ci) {
+            // The four corner nodes (clamped to the window); a cell deep inside costs nothing.
+            std::array<std::size_t, 4> nodes{};
             bool deep_inside = true;
-            double best = kInfinity;
-            for (const double di : {0.0, 1.0}) {
-                for (const double dj : {0.0, 1.0}) {
+            int count = 0;
+            for (const double dj : {0.0, 1.0}) {
+                for (const double di : {0.0, 1.0}) {
                     const double ni = ci + di;
                     const double nj = cj + dj;
                     const bool in_window = ni >= 0 && nj >= 0 && ni < f.nx && nj < f.ny;
                     const std::uint32_t i = std::uint32_t(std::clamp(ni, 0.0, double(f.nx - 1)));
                     const std::uint32_t j = std::uint32_t(std::clamp(nj, 0.0, double(f.ny - 1)));
-                    const std::size_t node = f.node_index(i, j);
-                    if (!in_window || f.distance_px[node] > -kInsideDepthPx) {
+                    nodes[count++] = f.node_index(i, j);
+                    if (!in_window || f.distance_px[nodes[count - 1]] > -kInsideDepthPx) {
                         deep_inside = false;
                     }
-                    const Vec2 s = slice.sites[f.closest[node]];
-                    double far = 0.0;
-                    for (const Vec2& v : piece) {
-                        far = std::max(far, distance(v, s));
-                    }
-                    best = std::min(best, far);
                 }
             }
-            if (!deep_inside) {
-                worst = std::max(worst, best);
+            if (deep_inside) {
+                continue;
             }
+            const double xa = f.origin_x + ci * c;
+            const Polygon piece = clip(clip(row, 0, xa, false), 0, xa + c, true);
+            if (piece.n == 0) {
+                continue;
+            }
+            double best = kInfinity;
+            for (const std::size_t node : nodes) {
+                const Vec2 s = slice.sites[f.closest[node]];
+                double far = 0.0;
+                for (int i = 0; i < piece.n; ++i) {
+                    far = std::max(far, distance(piece.p[i], s));
+                }
+                best = std::min(best, far);
+            }
+            worst = std::max(worst, best);
         }
     }
     return worst;

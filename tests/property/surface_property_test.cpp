@@ -104,6 +104,7 @@ TEST(SurfaceProperty, RandomShapesGiveValidSurfacesWithReferenceTopology) {
         }
         Report report;
         ReconstructOptions options;
+        options.simplify = false;  // surfaces only
         options.threads = 1;
         const Reconstruction result = reconstruct(stack, options, report);
         ASSERT_EQ(result.surfaces.size(), 1u) << "seed " << seed;
@@ -127,6 +128,7 @@ TEST(SurfaceProperty, RandomShapesGiveValidSurfacesWithReferenceTopology) {
                                   stack.labels.begin() + std::ptrdiff_t(k + 2) * 1600);
                 Report r2;
                 ReconstructOptions o2;
+                o2.simplify = false;  // surfaces only
                 o2.threads = 1;
                 const Reconstruction s2 = reconstruct(sub, o2, r2);
                 for (const ObjectSurface& os : s2.surfaces) {

@@ -43,7 +43,6 @@ std::multiset<Tri> triangle_set(const MultiresMesh& mesh, const std::vector<std:
 
 struct Built {
     Reconstruction reconstruction;
-    std::vector<MultiresMesh> models;  ///< per surface
 };
 
 Built build(const std::string& name, std::size_t cluster_triangles = 256) {
@@ -51,14 +50,8 @@ Built build(const std::string& name, std::size_t cluster_triangles = 256) {
     const Phantom phantom = make_phantom(name);
     Report report;
     ReconstructOptions options;
+    options.multires.cluster_triangles = cluster_triangles;
     b.reconstruction = reconstruct(phantom.stack, options, report);
-    for (const ObjectSurface& s : b.reconstruction.surfaces) {
-        const SliceErrorMeter meter(b.reconstruction.contours, b.reconstruction.fields, s.label,
-                                    b.reconstruction.slice_spacing_px);
-        MultiresOptions mo;
-        mo.cluster_triangles = cluster_triangles;
-        b.models.push_back(build_multires_mesh(s.mesh, meter, 0.5, mo));
-    }
     return b;
 }
 
@@ -75,8 +68,8 @@ void expect_valid_cut(const TriMesh& cut, const MeshReport& reference, const std
 
 TEST(MultiresDag, CutsOfTorusAreClosedWithTheRightGenus) {
     const Built b = build("torus");
-    ASSERT_EQ(b.models.size(), 1u);
-    const MultiresMesh& m = b.models[0];
+    ASSERT_EQ(b.reconstruction.models.size(), 1u);
+    const MultiresMesh& m = b.reconstruction.models[0];
     const MeshReport reference = check_mesh(b.reconstruction.surfaces[0].mesh);
     EXPECT_GT(m.groups.size(), 2u);
     std::vector<double> errors;
@@ -101,7 +94,7 @@ TEST(MultiresDag, CutsOfTorusAreClosedWithTheRightGenus) {
 
 TEST(MultiresDag, FinestCutIsTheFullResolutionSurface) {
     const Built b = build("sphere");
-    const MultiresMesh& m = b.models[0];
+    const MultiresMesh& m = b.reconstruction.models[0];
     const MultiresCut cut = select_cut_by_error(m, 0.0);
     std::vector<std::uint32_t> level0;
     for (std::uint32_t c = 0; c < m.clusters.size(); ++c) {
@@ -119,7 +112,7 @@ TEST(MultiresDag, FinestCutIsTheFullResolutionSurface) {
 
 TEST(MultiresDag, GeomorphReproducesCoarseClusters) {
     const Built b = build("torus");
-    const MultiresMesh& m = b.models[0];
+    const MultiresMesh& m = b.reconstruction.models[0];
     for (std::size_t g = 0; g < m.groups.size(); ++g) {
         std::multiset<Tri> moved;
         for (const std::uint32_t c : m.groups[g].consumed) {

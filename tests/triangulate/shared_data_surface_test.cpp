@@ -26,6 +26,7 @@ namespace {
 std::size_t check_surfaces(const SliceStack& stack) {
     Report report;
     ReconstructOptions options;
+    options.simplify = false;  // surfaces only
     options.verify = false;
     const Reconstruction result = reconstruct(stack, options, report);
     EXPECT_EQ(result.surfaces.size(), present_labels(stack).size());

@@ -100,6 +100,7 @@ TEST_P(CatalogueSurface, IsClosedManifoldWithReferenceTopology) {
     const Phantom phantom = make_phantom(GetParam());
     Report report;
     ReconstructOptions options;
+    options.simplify = false;  // surfaces only
     const Reconstruction result = reconstruct(phantom.stack, options, report);
     const SurfaceSummary s = summarise(result, true);
     for (const std::string& p : s.problems) {
@@ -124,6 +125,8 @@ TEST(Surface, IdenticalForAnyThreadCount) {
         const Phantom phantom = make_phantom(name);
         Report report;
         ReconstructOptions options;
+        options.simplify = false;  // surfaces only
+        options.simplify = false;  // surfaces only
         options.verify = false;
         options.threads = 1;
         const Reconstruction one = reconstruct(phantom.stack, options, report);
