@@ -233,27 +233,101 @@ std::string file_stem(const std::string& name) {
     return stem.empty() ? std::string("object") : stem;
 }
 
+namespace {
+
+/// The stack a command works on: the input file or folder, else the named phantom; spacing
+/// override and label selection applied.
+SliceStack load_stack(const std::string& input,
+                      const std::string& phantom,
+                      const std::optional<Vec3>& spacing_mm,
+                      const std::filesystem::path& color_table,
+                      const std::vector<std::string>& labels,
+                      TerminalProgress& progress,
+                      Report& report) {
+    SliceStack stack;
+    if (input.empty()) {
+        stack = make_phantom(phantom).stack;
+        if (spacing_mm) {
+            override_spacing(stack, *spacing_mm);
+        }
+    } else {
+        const std::string lower = [&] {
+            std::string l = input;
+            std::transform(l.begin(), l.end(), l.begin(),
+                           [](unsigned char c) { return char(std::tolower(c)); });
+            return l;
+        }();
+        if (lower.ends_with(".glb") || lower.ends_with(".gltf")) {
+            throw Error(ErrorCode::Unsupported,
+                        input +
+                            ": reading strata's progressive glTF is not supported yet; "
+                            "give the label stack it was built from");
+        }
+        ReadOptions read;
+        read.spacing_mm = spacing_mm;
+        read.color_table = color_table;
+        read.progress = progress.callback();
+        stack = read_slice_stack(input, read, report);
+    }
+    progress.finish();
+    if (!labels.empty()) {
+        select_labels(stack, labels);
+    }
+    return stack;
+}
+
+/// Millimetres per slice-space pixel for error bounds: the larger in-plane spacing, so an
+/// in-plane distance of e px is at most e times this in mm.
+double error_mm_per_px(const SliceStack& stack) {
+    const Vec3 spacing = stack.spacing_mm();
+    return std::max(spacing.x, spacing.y);
+}
+
+/// Name and colour of a label from the stack's table (a generated name when absent).
+SceneObject scene_object(const SliceStack& stack, std::uint16_t value) {
+    const auto label = std::find_if(stack.label_table.begin(), stack.label_table.end(),
+                                    [&](const LabelInfo& l) { return l.value == value; });
+    SceneObject object;
+    object.label = value;
+    object.name = label != stack.label_table.end() ? label->name : "label " + std::to_string(value);
+    if (label != stack.label_table.end()) {
+        object.srgb = {label->color[0] / 255.0, label->color[1] / 255.0, label->color[2] / 255.0};
+    }
+    return object;
+}
+
+}  // namespace
+
+ErrorBound parse_error_bound(const std::string& text) {
+    ErrorBound bound;
+    std::string number = text;
+    if (text.size() > 2 && text.ends_with("mm")) {
+        number = text.substr(0, text.size() - 2);
+    } else if (text.size() > 2 && text.ends_with("px")) {
+        number = text.substr(0, text.size() - 2);
+        bound.in_pixels = true;
+    }
+    std::size_t used = 0;
+    try {
+        bound.value = std::stod(number, &used);
+    } catch (const std::exception&) {
+        used = 0;
+    }
+    if (used == 0 || used != number.size() || !std::isfinite(bound.value) || bound.value < 0.0) {
+        throw Error(ErrorCode::InvalidInput,
+                    "--max-error: '" + text +
+                        "' is not an error bound; expected a non-negative number with mm or px, "
+                        "e.g. 0.5mm or 2px");
+    }
+    return bound;
+}
+
 int run_build(const BuildOptions& options) {
     const auto start = Clock::now();
     Report report;
-    SliceStack stack;
     TerminalProgress progress(options.output.quiet || options.output.json);
-    if (options.input.empty()) {
-        stack = make_phantom(options.phantom).stack;
-        if (options.spacing_mm) {
-            override_spacing(stack, *options.spacing_mm);
-        }
-    } else {
-        ReadOptions read;
-        read.spacing_mm = options.spacing_mm;
-        read.color_table = options.color_table;
-        read.progress = progress.callback();
-        stack = read_slice_stack(options.input, read, report);
-    }
-    progress.finish();
-    if (!options.labels.empty()) {
-        select_labels(stack, options.labels);
-    }
+    const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
+                                        options.color_table, options.labels, progress, report);
     const double input_seconds = seconds_since(start);
 
     ReconstructOptions reconstruct_options;
@@ -285,18 +359,10 @@ int run_build(const BuildOptions& options) {
     std::vector<SceneObject> scene;
     std::vector<Json> surface_json;
     std::vector<std::string> stems;
-    for (const ObjectSurface& surface : result.surfaces) {
-        const auto label =
-            std::find_if(stack.label_table.begin(), stack.label_table.end(),
-                         [&](const LabelInfo& l) { return l.value == surface.label; });
-        SceneObject object;
-        object.label = surface.label;
-        object.name = label != stack.label_table.end() ? label->name
-                                                       : "label " + std::to_string(surface.label);
-        if (label != stack.label_table.end()) {
-            object.srgb = {label->color[0] / 255.0, label->color[1] / 255.0,
-                           label->color[2] / 255.0};
-        }
+    const double mm_per_px = error_mm_per_px(stack);
+    for (std::size_t i = 0; i < result.surfaces.size(); ++i) {
+        const ObjectSurface& surface = result.surfaces[i];
+        SceneObject object = scene_object(stack, surface.label);
         object.mesh = surface_to_world(stack, result.slice_spacing_px, surface.mesh);
         const MeshReport check = check_mesh(object.mesh);
         std::string stem = file_stem(object.name);
@@ -329,6 +395,24 @@ int run_build(const BuildOptions& options) {
                   {"verified", surface.verification.ok()},
                   {"topology_mismatches", surface.topology_mismatches},
                   {"failed_slabs", surface.failed_slabs}};
+        if (i < result.models.size()) {
+            const MultiresMesh& model = result.models[i];
+            Json levels = Json::array();
+            for (std::uint32_t level = 0; level < level_count(model); ++level) {
+                const MultiresCut cut = select_cut_at_level(model, level);
+                std::size_t triangles = 0;
+                for (const std::uint32_t c : cut.clusters) {
+                    triangles += model.clusters[c].triangles.size();
+                }
+                levels.push_back({{"level", level},
+                                  {"triangles", triangles},
+                                  {"clusters", cut.clusters.size()},
+                                  {"error_px", cut.error_px},
+                                  {"error_mm", cut.error_px * mm_per_px}});
+            }
+            j["levels"] = levels;
+            j["groups"] = model.groups.size();
+        }
         if (!is_closed_manifold(check)) {
             j["problems"] = check.problems;
             report.warn("triangulate", object.name,
@@ -444,6 +528,16 @@ int run_build(const BuildOptions& options) {
                 j["volume_ml"].get<double>(), j["fallback_unsimplified_slices"].get<unsigned>(),
                 j["topology_mismatches"].get<unsigned>(), j["file"].get<std::string>().c_str());
             std::cout << buf;
+            if (j.contains("levels")) {
+                std::cout << "         levels (triangles, error mm):";
+                for (const Json& level : j["levels"]) {
+                    std::snprintf(buf, sizeof(buf), " %zu %.3g",
+                                  level["triangles"].get<std::size_t>(),
+                                  level["error_mm"].get<double>());
+                    std::cout << (level["level"] == 0 ? "" : " ->") << buf;
+                }
+                std::cout << '\n';
+            }
         }
         if (any_triangles) {
             std::cout << "scene: " << scene_file.string() << '\n';
@@ -455,6 +549,98 @@ int run_build(const BuildOptions& options) {
         std::cout << "\nwrote " << summary_file.string() << '\n';
     }
     if (!options.output.quiet) {
+        print_warnings(std::cerr, report);
+    }
+    return 0;
+}
+
+int run_extract(const ExtractOptions& options) {
+    Report report;
+    TerminalProgress progress(options.output_options.quiet || options.output_options.json);
+    std::string extension = options.output.extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    const bool to_gltf = extension == ".glb" || extension == ".gltf";
+    if (!to_gltf && extension != ".ply" && extension != ".obj" && extension != ".stl") {
+        throw Error(ErrorCode::InvalidInput, "extract: output '" + options.output.string() +
+                                                 "' has no known extension; expected .ply, "
+                                                 ".obj, .stl, .glb or .gltf");
+    }
+    const ErrorBound bound = parse_error_bound(options.max_error);
+    const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
+                                        options.color_table, options.labels, progress, report);
+    ReconstructOptions reconstruct_options;
+    reconstruct_options.contours.tolerance_px = options.tolerance_px;
+    reconstruct_options.threads = options.threads;
+    reconstruct_options.progress = progress.callback();
+    const Reconstruction result = reconstruct(stack, reconstruct_options, report);
+    progress.finish();
+
+    const double mm_per_px = error_mm_per_px(stack);
+    const double max_error_px = bound.in_pixels ? bound.value : bound.value / mm_per_px;
+    std::vector<SceneObject> scene;
+    TriMesh merged;
+    Json objects = Json::array();
+    for (std::size_t i = 0; i < result.surfaces.size(); ++i) {
+        const MultiresMesh& model = result.models[i];
+        const MultiresCut cut = select_cut_by_error(model, max_error_px);
+        SceneObject object = scene_object(stack, result.surfaces[i].label);
+        object.mesh = surface_to_world(stack, result.slice_spacing_px, cut_mesh(model, cut));
+        const MeshReport check = check_mesh(object.mesh);
+        objects.push_back({{"label", object.label},
+                           {"name", object.name},
+                           {"triangles", object.mesh.triangles.size()},
+                           {"full_resolution_triangles", result.surfaces[i].mesh.triangles.size()},
+                           {"error_mm", cut.error_px * mm_per_px},
+                           {"error_px", cut.error_px},
+                           {"closed_manifold", is_closed_manifold(check)}});
+        if (cut.error_px > max_error_px) {
+            report.warn("extract", object.name,
+                        "the full-resolution surface already has an error of " +
+                            std::to_string(cut.error_px * mm_per_px) +
+                            " mm, more than the bound asked for");
+        }
+        const std::uint32_t offset = static_cast<std::uint32_t>(merged.positions.size());
+        merged.positions.insert(merged.positions.end(), object.mesh.positions.begin(),
+                                object.mesh.positions.end());
+        for (const auto& t : object.mesh.triangles) {
+            merged.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+            merged.labels.push_back(object.label);
+        }
+        scene.push_back(std::move(object));
+    }
+    if (merged.triangles.empty()) {
+        throw Error(ErrorCode::InvalidInput, "extract: the input has no objects to extract");
+    }
+    if (to_gltf) {
+        SceneInfo info;
+        info.source = stack.source;
+        const Vec3 spacing = stack.spacing_mm();
+        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
+        info.generator = "strata 0.1.0";
+        write_scene_gltf(options.output, scene, info);
+    } else {
+        write_mesh(merged, options.output);
+    }
+    Json summary = {{"output", options.output.string()},
+                    {"max_error_mm", max_error_px * mm_per_px},
+                    {"objects", objects},
+                    {"warnings", warnings_json(report)}};
+    if (options.output_options.json) {
+        std::cout << summary.dump(2) << '\n';
+    } else if (!options.output_options.quiet) {
+        for (const Json& o : objects) {
+            char buf[256];
+            std::snprintf(
+                buf, sizeof(buf), "  %5u  %-24s %8zu triangles (of %zu), error <= %.3g mm\n",
+                unsigned(o["label"].get<int>()), o["name"].get<std::string>().c_str(),
+                o["triangles"].get<std::size_t>(),
+                o["full_resolution_triangles"].get<std::size_t>(), o["error_mm"].get<double>());
+            std::cout << buf;
+        }
+        std::cout << "wrote " << options.output.string() << '\n';
+    }
+    if (!options.output_options.quiet) {
         print_warnings(std::cerr, report);
     }
     return 0;

@@ -30,6 +30,30 @@ struct BuildOptions {
     OutputOptions output;
 };
 
+/// `strata extract INPUT --max-error E -o FILE`: one resolution of every object.
+struct ExtractOptions {
+    std::string input;                ///< label stack (as for build); empty: the built-in phantom
+    std::string phantom = "scene";    ///< built-in phantom used when `input` is empty
+    std::filesystem::path output;     ///< .ply, .obj, .stl (all objects, label per triangle) or
+                                      ///< .glb/.gltf (one node per object)
+    std::string max_error = "0.5mm";  ///< bound: "0.5mm", "2px" or a number of mm
+    std::optional<Vec3> spacing_mm;
+    std::vector<std::string> labels;
+    std::filesystem::path color_table;
+    double tolerance_px = 0.5;
+    unsigned threads = 0;
+    OutputOptions output_options;
+};
+
+/// A declared error bound as the user wrote it: a value in mm or in pixels.
+struct ErrorBound {
+    double value = 0.5;
+    bool in_pixels = false;
+};
+
+/// Parses "0.5mm", "2px", "0.5" (mm); throws Error{InvalidInput} naming the flag.
+ErrorBound parse_error_bound(const std::string& text);
+
 /// `strata phantom NAME -o DIR`.
 struct PhantomCommandOptions {
     std::string name;
@@ -55,5 +79,6 @@ Vec3 parse_spacing(const std::string& text);
 int run_build(const BuildOptions& options);
 int run_phantom(const PhantomCommandOptions& options);
 int run_info(const InfoOptions& options);
+int run_extract(const ExtractOptions& options);
 
 }  // namespace strata::cli

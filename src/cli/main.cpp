@@ -93,6 +93,39 @@ int main(int argc, char** argv) {
     phantom_cmd->add_flag("--list", phantom.list, "List the phantom names");
     add_output_flags(*phantom_cmd, phantom.output_options);
 
+    strata::cli::ExtractOptions extract;
+    CLI::App* extract_cmd = app.add_subcommand(
+        "extract", "Reconstruct and write one resolution of every object, within an error bound");
+    extract_cmd->add_option("input", extract.input,
+                            "Label stack as for `build`; omitted: the built-in phantom");
+    extract_cmd
+        ->add_option("--phantom", extract.phantom, "Built-in phantom to use when no input is given")
+        ->capture_default_str();
+    extract_cmd
+        ->add_option("--max-error", extract.max_error,
+                     "Error bound of the slice sections against the input contours: 0.5mm, 2px, "
+                     "or a number of mm")
+        ->capture_default_str();
+    extract_cmd
+        ->add_option("-o,--output", extract.output,
+                     "Output file: .ply/.obj/.stl (all objects, PLY keeps a label per triangle) or "
+                     ".glb/.gltf (one node per object)")
+        ->required();
+    add_spacing_flag(*extract_cmd, extract.spacing_mm);
+    extract_cmd
+        ->add_option("--labels", extract.labels,
+                     "Labels to extract, by value or name (comma separated); default all")
+        ->delimiter(',');
+    extract_cmd->add_option("--color-table", extract.color_table, "Colour table naming labels");
+    extract_cmd
+        ->add_option("--tolerance", extract.tolerance_px,
+                     "Contour simplification tolerance in pixels")
+        ->check(CLI::Range(0.0, 100.0))
+        ->capture_default_str();
+    extract_cmd->add_option("--threads", extract.threads, "Worker threads (0: all cores)")
+        ->capture_default_str();
+    add_output_flags(*extract_cmd, extract.output_options);
+
     strata::cli::InfoOptions info;
     CLI::App* info_cmd = app.add_subcommand("info", "Describe an input stack");
     info_cmd->add_option("input", info.input, "Input file or folder")->required();
@@ -122,6 +155,9 @@ int main(int argc, char** argv) {
                                     kExitBadInput);
             }
             return strata::cli::run_phantom(phantom);
+        }
+        if (extract_cmd->parsed()) {
+            return strata::cli::run_extract(extract);
         }
         if (info_cmd->parsed()) {
             return strata::cli::run_info(info);

@@ -492,6 +492,45 @@ MultiresCut select_cut_by_error(const MultiresMesh& mesh, double max_error_px) {
     return select_cut(mesh, [&](const MultiresGroup& g) { return g.error_px > max_error_px; });
 }
 
+MultiresCut select_cut_at_level(const MultiresMesh& mesh, std::uint32_t level) {
+    return select_cut(mesh, [&](const MultiresGroup& g) { return g.level > level; });
+}
+
+std::uint32_t level_count(const MultiresMesh& mesh) {
+    std::uint32_t top = 0;
+    for (const MultiresGroup& g : mesh.groups) {
+        top = std::max(top, g.level);
+    }
+    return top + 1;
+}
+
+double screen_space_error_px(const ScreenCamera& camera, const Sphere& bounds, double error) {
+    const double distance = norm(bounds.center - camera.position) - bounds.radius;
+    if (!(distance > 0.0)) {
+        return std::numeric_limits<double>::infinity();
+    }
+    return error * camera.viewport_height_px / (distance * 2.0 * std::tan(0.5 * camera.fovy_rad));
+}
+
+MultiresCut select_cut_for_camera(const MultiresMesh& mesh,
+                                  const ScreenCamera& camera,
+                                  double max_screen_error_px) {
+    return select_cut(mesh, [&](const MultiresGroup& g) {
+        return screen_space_error_px(camera, g.bounds, g.error_px) > max_screen_error_px;
+    });
+}
+
+MultiresCut select_cut_in_region(const MultiresMesh& mesh,
+                                 const Sphere& region,
+                                 double inside_error_px,
+                                 double outside_error_px) {
+    return select_cut(mesh, [&](const MultiresGroup& g) {
+        const bool inside =
+            norm(g.bounds.center - region.center) <= g.bounds.radius + region.radius;
+        return g.error_px > (inside ? inside_error_px : outside_error_px);
+    });
+}
+
 TriMesh cut_mesh(const MultiresMesh& mesh, const MultiresCut& cut) {
     TriMesh out;
     std::unordered_map<std::uint32_t, std::uint32_t> index;

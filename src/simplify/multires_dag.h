@@ -116,6 +116,38 @@ MultiresCut select_cut(const MultiresMesh& mesh,
 /// group whose error exceeds the bound is refined.
 MultiresCut select_cut_by_error(const MultiresMesh& mesh, double max_error_px);
 
+/// The cut of level `level`: every group above that level refined, none at or below it, so each
+/// part of the surface is shown by its coarsest cluster of level <= `level`.
+MultiresCut select_cut_at_level(const MultiresMesh& mesh, std::uint32_t level);
+
+/// Number of levels: 1 + the largest group level (1 when nothing was simplified).
+std::uint32_t level_count(const MultiresMesh& mesh);
+
+/// A pinhole camera in the model's units (slice space for models from the pipeline).
+struct ScreenCamera {
+    Vec3 position;
+    double fovy_rad = 0.8;               ///< vertical field of view
+    double viewport_height_px = 1080.0;  ///< screen pixels
+};
+
+/// The projected size (screen px) of error `error` seen from `camera` at the nearest point of
+/// `bounds` (3D Tiles' screen-space error: error * height / (distance * 2 tan(fovy / 2)));
+/// infinite inside the sphere.
+double screen_space_error_px(const ScreenCamera& camera, const Sphere& bounds, double error);
+
+/// The cut whose every cluster projects to at most `max_screen_error_px`: refines every group
+/// whose error, projected from its bounding sphere, exceeds it.
+MultiresCut select_cut_for_camera(const MultiresMesh& mesh,
+                                  const ScreenCamera& camera,
+                                  double max_screen_error_px);
+
+/// Region of interest: bound `inside_error_px` for groups whose sphere meets `region`,
+/// `outside_error_px` elsewhere.
+MultiresCut select_cut_in_region(const MultiresMesh& mesh,
+                                 const Sphere& region,
+                                 double inside_error_px,
+                                 double outside_error_px);
+
 /// The triangles of a cut as one mesh (vertices shared between clusters merged by id).
 TriMesh cut_mesh(const MultiresMesh& mesh, const MultiresCut& cut);
 
