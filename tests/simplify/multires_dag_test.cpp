@@ -15,6 +15,7 @@
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
 #include "simplify/slice_error.h"
+#include "support/cut_error.h"
 
 namespace strata {
 namespace {
@@ -84,6 +85,13 @@ TEST(MultiresDag, CutsOfTorusAreClosedWithTheRightGenus) {
         EXPECT_LE(cut.error_px, std::max(tau, m.full_resolution_error_px));
         const TriMesh mesh = cut_mesh(m, cut);
         expect_valid_cut(mesh, reference, "tau " + std::to_string(tau));
+        const test::CutErrorReport measured = test::measure_cut_error(
+            mesh, b.reconstruction.contours, b.reconstruction.surfaces[0].label,
+            b.reconstruction.slice_spacing_px);
+        EXPECT_LE(measured.max_px(), cut.error_px + 1e-9) << "tau " << tau;
+        std::cout << "tau " << tau << ": declared " << cut.error_px << " measured "
+                  << measured.max_section_px << " / cap " << measured.max_cap_px << " px, "
+                  << mesh.triangles.size() << " triangles\n";
         EXPECT_LE(mesh.triangles.size(), previous);
         previous = mesh.triangles.size();
     }
