@@ -32,6 +32,7 @@ struct Candidate {
     std::uint32_t u = 0;  ///< local vertex removed
     std::uint32_t v = 0;  ///< local vertex kept
     std::uint32_t stamp = 0;
+    bool exact = false;  ///< `cost` is the collapse's cost, not only a lower bound
 
     /// Min-heap order on (cost, u, v).
     friend bool operator<(const Candidate& a, const Candidate& b) {
@@ -47,6 +48,20 @@ struct Candidate {
 
 Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
     return cross(b - a, c - a);
+}
+
+/// True when the bounding boxes of two triangles overlap (touching counts).
+bool boxes_overlap(const std::array<Vec3, 3>& a, const std::array<Vec3, 3>& b) {
+    for (int axis = 0; axis < 3; ++axis) {
+        const double alo = std::min({a[0][axis], a[1][axis], a[2][axis]});
+        const double ahi = std::max({a[0][axis], a[1][axis], a[2][axis]});
+        const double blo = std::min({b[0][axis], b[1][axis], b[2][axis]});
+        const double bhi = std::max({b[0][axis], b[1][axis], b[2][axis]});
+        if (ahi < blo || bhi < alo) {
+            return false;
+        }
+    }
+    return true;
 }
 
 /// A uniform grid over triangle boxes: candidate neighbours for the intersection tests. Entries
@@ -103,6 +118,7 @@ public:
         : positions_(*problem.positions),
           meter_(meter),
           options_(options),
+          cache_(options.error_floor_px),
           grid_(grid_cell(problem)) {
         // Local vertex ids: the piece's vertices in increasing global id.
         for (const Tri& t : problem.triangles) {
@@ -169,7 +185,25 @@ public:
             if (c.cost > options_.max_error_px) {
                 break;
             }
-            if (!topology_allows(c.u, c.v) || creates_intersection(c.u, c.v)) {
+            if (!topology_allows(c.u, c.v)) {
+                continue;
+            }
+            if (!c.exact) {
+                // Lazy evaluation: the cost is read only now; the collapse goes ahead if nothing
+                // left in the queue can be cheaper, else it waits with its real cost.
+                const std::optional<double> exact = cost(c.u, c.v);
+                if (!exact) {
+                    continue;
+                }
+                if (!queue_.empty() && *exact > queue_.top().cost) {
+                    queue_.push({*exact, c.u, c.v, c.stamp, true});
+                    continue;
+                }
+                if (*exact > options_.max_error_px) {
+                    continue;
+                }
+            }
+            if (creates_intersection(c.u, c.v)) {
                 continue;
             }
             apply(c.u, c.v);
@@ -248,6 +282,11 @@ private:
     /// Sorted distinct neighbours of v.
     std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
         std::vector<std::uint32_t> result;
+        neighbours(v, result);
+        return result;
+    }
+    void neighbours(std::uint32_t v, std::vector<std::uint32_t>& result) const {
+        result.clear();
         for (const std::uint32_t t : vertex_triangles_[v]) {
             for (const std::uint32_t w : triangles_[t]) {
                 if (w != v) {
@@ -257,7 +296,6 @@ private:
         }
         std::sort(result.begin(), result.end());
         result.erase(std::unique(result.begin(), result.end()), result.end());
-        return result;
     }
 
     bool contains(std::uint32_t t, std::uint32_t v) const {
@@ -275,35 +313,65 @@ private:
         return c;
     }
 
+    /// Global ids of triangle t with u replaced by v.
+    Tri ids_moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        const Tri& lt = triangles_[t];
+        Tri g{};
+        for (int i = 0; i < 3; ++i) {
+            g[i] = global_[lt[i] == u ? v : lt[i]];
+        }
+        return g;
+    }
+
     /// Link condition, degrees, locked edges and the 2 triangles of edge uv.
     bool topology_allows(std::uint32_t u, std::uint32_t v) const {
         if (locked_[u]) {
             return false;
         }
-        std::vector<std::uint32_t> opposite;
+        std::array<std::uint32_t, 2> opposite{};
+        int found = 0;
         for (const std::uint32_t t : vertex_triangles_[u]) {
             if (contains(t, v)) {
                 for (const std::uint32_t w : triangles_[t]) {
                     if (w != u && w != v) {
-                        opposite.push_back(w);
+                        if (found == 2) {
+                            return false;  // not a manifold edge
+                        }
+                        opposite[found++] = w;
                     }
                 }
             }
         }
-        if (opposite.size() != 2 || opposite[0] == opposite[1]) {
+        if (found != 2 || opposite[0] == opposite[1]) {
             return false;  // not an interior manifold edge of the piece
         }
-        const std::vector<std::uint32_t> nu = neighbours(u);
-        const std::vector<std::uint32_t> nv = neighbours(v);
-        std::vector<std::uint32_t> common;
-        std::set_intersection(nu.begin(), nu.end(), nv.begin(), nv.end(),
-                              std::back_inserter(common));
+        std::vector<std::uint32_t>& nu = scratch_u_;
+        std::vector<std::uint32_t>& nv = scratch_v_;
+        neighbours(u, nu);
+        neighbours(v, nv);
         std::sort(opposite.begin(), opposite.end());
-        if (common != opposite) {
-            return false;  // link condition
+        // Link condition: the common neighbours of u and v are exactly the two opposite vertices.
+        std::size_t common = 0;
+        for (std::size_t i = 0, j = 0; i < nu.size() && j < nv.size();) {
+            if (nu[i] < nv[j]) {
+                ++i;
+            } else if (nv[j] < nu[i]) {
+                ++j;
+            } else {
+                if (common == 2 || nu[i] != opposite[common]) {
+                    return false;
+                }
+                ++common;
+                ++i;
+                ++j;
+            }
+        }
+        if (common != 2) {
+            return false;
         }
         for (const std::uint32_t w : opposite) {
-            if (neighbours(w).size() <= 3) {
+            // note: a piece's star of w is at most w's degree, so this errs on the safe side.
+            if (vertex_triangles_[w].size() <= 3) {
                 return false;
             }
         }
@@ -325,7 +393,7 @@ private:
     /// Cost of collapsing u onto v (max error bound of the changed triangles), or nothing when
     /// the collapse folds or degenerates a triangle.
     std::optional<double> cost(std::uint32_t u, std::uint32_t v) const {
-        double reached = 0.0;
+        double reached = options_.error_floor_px;
         bool any = false;
         for (const std::uint32_t t : vertex_triangles_[u]) {
             if (contains(t, v)) {
@@ -342,7 +410,8 @@ private:
             if (dot(n0, n1) < std::max(options_.min_normal_cos, 1e-12) * l0 * l1) {
                 return std::nullopt;
             }
-            reached = meter_.triangle_error_px(after, reached);
+            reached =
+                std::max(reached, meter_.triangle_error_px(after, ids_moved(t, u, v), cache_));
             any = true;
             if (reached > options_.max_error_px) {
                 return std::nullopt;
@@ -358,10 +427,9 @@ private:
         if (locked_[u] || vertex_triangles_[u].empty()) {
             return;
         }
+        // note: every collapse costs at least the floor; the real cost is read when popped.
         for (const std::uint32_t v : neighbours(u)) {
-            if (const std::optional<double> c = cost(u, v)) {
-                queue_.push({*c, u, v, stamp_[u]});
-            }
+            queue_.push({options_.error_floor_px, u, v, stamp_[u], false});
         }
     }
 
@@ -372,14 +440,7 @@ private:
                 changed.push_back(t);
             }
         }
-        auto ids_after = [&](std::uint32_t t) {
-            const Tri& lt = triangles_[t];
-            Tri g{};
-            for (int i = 0; i < 3; ++i) {
-                g[i] = global_[lt[i] == u ? v : lt[i]];
-            }
-            return g;
-        };
+        auto ids_after = [&](std::uint32_t t) { return ids_moved(t, u, v); };
         if (seen_.size() < triangles_.size() + obstacles_.size()) {
             seen_.resize(triangles_.size() + obstacles_.size(), 0);
         }
@@ -406,15 +467,18 @@ private:
                 }
                 seen_[slot] = query_;
                 if (obstacle) {
-                    const Tri& g = obstacles_[index];
-                    hit = triangles_intersect(ta, ia, obstacle_corners(index), g);
+                    const std::array<Vec3, 3> tb = obstacle_corners(index);
+                    hit =
+                        boxes_overlap(ta, tb) && triangles_intersect(ta, ia, tb, obstacles_[index]);
                     return;
                 }
                 if (!alive_[index] || contains(index, u)) {
                     return;  // removed or replaced by this collapse
                 }
                 const Tri& lt = triangles_[index];
-                hit = triangles_intersect(ta, ia, corners(index),
+                const std::array<Vec3, 3> tb = corners(index);
+                hit = boxes_overlap(ta, tb) &&
+                      triangles_intersect(ta, ia, tb,
                                           {global_[lt[0]], global_[lt[1]], global_[lt[2]]});
             });
             if (hit) {
@@ -429,7 +493,6 @@ private:
         // candidates need new costs.
         std::vector<std::uint32_t> touched = neighbours(u);
         std::vector<std::uint32_t> star = vertex_triangles_[u];
-        double reached = 0.0;
         for (const std::uint32_t t : star) {
             if (contains(t, v)) {
                 alive_[t] = false;
@@ -443,8 +506,7 @@ private:
                 continue;
             }
             const std::array<Vec3, 3> after = moved(t, u, v);
-            error_[t] = meter_.triangle_error_px(after, 0.0);
-            reached = std::max(reached, error_[t]);
+            error_[t] = meter_.triangle_error_px(after, ids_moved(t, u, v), cache_);
             for (std::uint32_t& w : triangles_[t]) {
                 if (w == u) {
                     w = v;
@@ -466,6 +528,7 @@ private:
     const std::vector<Vec3>& positions_;
     const SliceErrorMeter& meter_;
     const CollapseOptions& options_;
+    mutable SectionCache cache_;
     TriangleGrid grid_;
     std::vector<std::uint32_t> global_;  ///< local vertex -> global id
     std::vector<bool> locked_;
@@ -477,6 +540,7 @@ private:
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     std::priority_queue<Candidate> queue_;
+    mutable std::vector<std::uint32_t> scratch_u_, scratch_v_;
     std::vector<std::uint32_t> seen_;
     std::uint32_t query_ = 0;
 };

@@ -21,6 +21,10 @@ struct CollapseOptions {
     /// Refuse collapses that turn a triangle's normal by more than acos(min_normal_cos)
     /// (0.1: about 84 degrees); 180-degree turns (flips) are always refused.
     double min_normal_cos = 0.1;
+    /// Errors up to this bound (px) are not told apart: a collapse costs at least this much, and
+    /// the error reads skip everything that cannot exceed it (paper section 7.2). Set it to the
+    /// error the piece already has (its inputs' bound), which the result keeps anyway.
+    double error_floor_px = 0.0;
 };
 
 /// A piece of a closed surface to simplify, plus what it must not run into. Vertex ids index

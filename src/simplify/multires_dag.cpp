@@ -383,7 +383,10 @@ private:
 
         CollapseOptions collapse;
         collapse.target_triangles = before / 2;
-        collapse.max_error_px = options_.max_error_px;
+        collapse.max_error_px =
+            std::min(options_.max_error_px,
+                     std::max(options_.error_growth * children_error, children_error + 0.5));
+        collapse.error_floor_px = children_error;
         CollapseResult result = collapse_edges(problem, meter_, collapse);
         if (double(result.triangles.size()) > double(before) * (1.0 - options_.min_reduction)) {
             return false;

@@ -79,8 +79,12 @@ struct MultiresMesh {
 struct MultiresOptions {
     std::size_t cluster_triangles = 1024;  ///< target triangles per cluster
     std::size_t group_clusters = 4;        ///< clusters simplified together (a power of two)
-    /// A group is simplified until half its triangles remain; collapses above this bound (px) are
-    /// never made. The coarsest level is reached when no group can shrink by `min_reduction`.
+    /// A group is simplified until half its triangles remain or the next collapse would raise its
+    /// error above max(error_growth * e, e + 0.5 px), e being the error of the clusters it
+    /// consumes: each level may at most double the error, so the levels form an even ladder.
+    double error_growth = 2.0;
+    /// Collapses above this bound (px) are never made. The coarsest level is reached when no
+    /// group can shrink by `min_reduction`.
     double max_error_px = std::numeric_limits<double>::infinity();
     double min_reduction = 0.15;  ///< least fraction of triangles a group must lose
     std::uint32_t max_levels = 24;

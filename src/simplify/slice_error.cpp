@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 namespace strata {
 
@@ -256,6 +257,19 @@ double SliceErrorMeter::cap_error_px(std::uint32_t k, const std::array<Vec2, 3>&
 
 double SliceErrorMeter::triangle_error_px(const std::array<Vec3, 3>& triangle,
                                           double known_px) const {
+    return triangle_error(triangle, nullptr, nullptr, known_px);
+}
+
+double SliceErrorMeter::triangle_error_px(const std::array<Vec3, 3>& triangle,
+                                          const std::array<std::uint32_t, 3>& ids,
+                                          SectionCache& cache) const {
+    return triangle_error(triangle, &ids, &cache, cache.known_px());
+}
+
+double SliceErrorMeter::triangle_error(const std::array<Vec3, 3>& triangle,
+                                       const std::array<std::uint32_t, 3>* ids,
+                                       SectionCache* cache,
+                                       double known_px) const {
     double zmin = kInfinity, zmax = -kInfinity;
     for (const Vec3& v : triangle) {
         if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
@@ -303,6 +317,31 @@ double SliceErrorMeter::triangle_error_px(const std::array<Vec3, 3>& triangle,
         }
         if (n == 0) {
             continue;  // only within the tolerance of the plane's rounding
+        }
+        if (cache != nullptr && count == n) {
+            // The section is a mesh edge or vertex lying in the plane: read it once.
+            int first = 0;
+            while (!in[first]) {
+                ++first;
+            }
+            int second = first;
+            for (int i = first + 1; i < 3; ++i) {
+                if (in[i]) {
+                    second = i;
+                }
+            }
+            const std::uint32_t a = std::min((*ids)[first], (*ids)[second]);
+            const std::uint32_t b = std::max((*ids)[first], (*ids)[second]);
+            const std::uint64_t key = std::uint64_t(a) << 32 | b;
+            auto it = cache->bounds_.find(key);
+            if (it == cache->bounds_.end()) {
+                it = cache->bounds_
+                         .emplace(key, segment_error_px(k, ends[0], ends[n == 1 ? 0 : 1],
+                                                        cache->known_px()))
+                         .first;
+            }
+            reached = std::max(reached, it->second);
+            continue;
         }
         reached = std::max(reached, segment_error_px(k, ends[0], ends[n == 1 ? 0 : 1], reached));
     }

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "contours/slice_contours.h"
@@ -9,6 +10,20 @@
 #include "distance/distance_field.h"
 
 namespace strata {
+
+/// Bounds of the sections that are mesh edges or vertices lying in a slice plane, by vertex ids:
+/// simplification meets the same contour edges in many candidate triangles, so each is read once.
+/// Valid for one mesh (ids) and one `known_px`.
+class SectionCache {
+public:
+    explicit SectionCache(double known_px) : known_px_(known_px) {}
+    double known_px() const { return known_px_; }
+
+private:
+    friend class SliceErrorMeter;
+    double known_px_ = 0.0;
+    std::unordered_map<std::uint64_t, double> bounds_;  ///< key: smaller id << 32 | larger id
+};
 
 /// Measures how far triangles of one label's surface stray from that label's original contours
 /// (paper section 7.1), in slice space: x, y in px on the contour grid, z = k * d for slice k.
@@ -40,6 +55,12 @@ public:
     /// the caller) makes this fast.
     double triangle_error_px(const std::array<Vec3, 3>& triangle, double known_px = 0.0) const;
 
+    /// The same for a triangle of a mesh (vertex ids `ids`), with max(cache.known_px(), ...):
+    /// sections that are edges or vertices of the mesh are read through `cache`.
+    double triangle_error_px(const std::array<Vec3, 3>& triangle,
+                             const std::array<std::uint32_t, 3>& ids,
+                             SectionCache& cache) const;
+
     /// max(known_px, error bound of the segment pq lying in the plane of slice k): its distance
     /// from the contour of slice k.
     double segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px = 0.0) const;
@@ -55,6 +76,10 @@ private:
         const DistanceField* field = nullptr;  ///< null: label absent on this slice
         std::vector<Vec2> sites;               ///< position of every site of `field`
     };
+    double triangle_error(const std::array<Vec3, 3>& triangle,
+                          const std::array<std::uint32_t, 3>* ids,
+                          SectionCache* cache,
+                          double known_px) const;
     /// The node nearest to p, clamped to the window.
     std::uint32_t nearest_node(const Slice& slice, Vec2 p) const;
 

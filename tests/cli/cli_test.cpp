@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "mesh/mesh_checks.h"
+#include "mesh/mesh_io.h"
 #include "support/test_paths.h"
 
 namespace strata {
@@ -53,7 +55,7 @@ CliRun run_cli(const std::vector<std::string>& args) {
 }
 
 TEST(Cli, HelpOnEveryCommand) {
-    for (const char* command : {"build", "phantom", "info"}) {
+    for (const char* command : {"build", "phantom", "info", "extract"}) {
         const CliRun r = run_cli({command, "--help"});
         EXPECT_EQ(r.exit_code, 0) << command << r.err;
         EXPECT_NE(r.out.find("--json"), std::string::npos) << command << r.out;
@@ -119,6 +121,21 @@ TEST(Cli, DefaultBuildUsesBuiltInPhantomAndWritesSummary) {
     }
     EXPECT_TRUE(fs::exists(out / "scene.glb"));
     EXPECT_EQ(written.at("scene").get<std::string>(), (out / "scene.glb").string());
+    // The multiresolution ladder: level 0 is the full surface; coarser levels have fewer
+    // triangles and no smaller error.
+    for (const auto& object : written.at("objects")) {
+        const auto& surface = object.at("surface");
+        const auto& levels = surface.at("levels");
+        ASSERT_GE(levels.size(), 2u) << object.at("name");
+        EXPECT_EQ(levels[0].at("triangles"), surface.at("triangles"));
+        EXPECT_LE(levels[0].at("error_mm").get<double>(), 0.5 + 1e-9);
+        for (std::size_t i = 1; i < levels.size(); ++i) {
+            EXPECT_LT(levels[i].at("triangles").get<long>(),
+                      levels[i - 1].at("triangles").get<long>());
+            EXPECT_GE(levels[i].at("error_mm").get<double>(),
+                      levels[i - 1].at("error_mm").get<double>());
+        }
+    }
     EXPECT_TRUE(written.at("timings_s").contains("triangulate"));
 }
 
@@ -130,6 +147,45 @@ TEST(Cli, MeshFormatOption) {
     EXPECT_TRUE(fs::exists(out / "meshes" / "sphere.stl"));
     const CliRun bad = run_cli({"build", "-o", out.string(), "--mesh-format", "vrml"});
     EXPECT_EQ(bad.exit_code, 2);
+}
+
+TEST(Cli, ExtractWritesOneResolutionWithinTheBound) {
+    const fs::path out = test::fresh_temp_dir("cli_extract");
+    const CliRun full = run_cli({"extract", "--phantom", "torus", "--max-error", "0px", "-o",
+                                 (out / "full.ply").string(), "--json"});
+    ASSERT_EQ(full.exit_code, 0) << full.err;
+    const CliRun coarse = run_cli({"extract", "--phantom", "torus", "--max-error", "1.5px", "-o",
+                                   (out / "coarse.ply").string(), "--json"});
+    ASSERT_EQ(coarse.exit_code, 0) << coarse.err;
+    const nlohmann::json f = nlohmann::json::parse(full.out).at("objects").at(0);
+    const nlohmann::json c = nlohmann::json::parse(coarse.out).at("objects").at(0);
+    EXPECT_EQ(f.at("triangles"), f.at("full_resolution_triangles"));
+    EXPECT_LT(c.at("triangles").get<long>(), f.at("triangles").get<long>() / 2);
+    EXPECT_LE(c.at("error_px").get<double>(), 1.5);
+    // 0 px is below what the full resolution guarantees: the caller is told.
+    EXPECT_NE(full.err.find("more than the bound asked for"), std::string::npos) << full.err;
+    const TriMesh mesh = read_mesh(out / "coarse.ply");
+    EXPECT_EQ(mesh.triangles.size(), c.at("triangles").get<std::size_t>());
+    ASSERT_EQ(mesh.labels.size(), mesh.triangles.size());
+    const MeshReport report = check_mesh(mesh);
+    EXPECT_TRUE(is_closed_manifold(report));
+    EXPECT_EQ(component_genera(report), std::vector<int>{1});
+}
+
+TEST(Cli, ExtractRejectsBadBoundsAndOutputs) {
+    const fs::path out = test::fresh_temp_dir("cli_extract_bad");
+    const CliRun bound =
+        run_cli({"extract", "--max-error", "fine", "-o", (out / "a.ply").string()});
+    EXPECT_EQ(bound.exit_code, 2);
+    EXPECT_NE(bound.err.find("--max-error: 'fine'"), std::string::npos) << bound.err;
+    const CliRun negative =
+        run_cli({"extract", "--max-error", "-1mm", "-o", (out / "a.ply").string()});
+    EXPECT_EQ(negative.exit_code, 2);
+    const CliRun extension = run_cli({"extract", "-o", (out / "a.vrml").string()});
+    EXPECT_EQ(extension.exit_code, 2);
+    EXPECT_NE(extension.err.find("expected .ply, .obj, .stl, .glb or .gltf"), std::string::npos)
+        << extension.err;
+    EXPECT_FALSE(fs::exists(out / "a.ply"));
 }
 
 TEST(Cli, PhantomPngAndNiftiReadBackWithSameDims) {
