@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <mutex>
+#include <numeric>
 #include <utility>
 
 #include "core/parallel.h"
@@ -154,12 +155,21 @@ Reconstruction reconstruct(const SliceStack& stack,
         std::vector<std::string> kept(result.surfaces.size());
         std::size_t done = 0;
         std::mutex progress_mutex;
-        parallel_for(result.surfaces.size(), options.threads, [&](std::size_t i) {
+        // note: the largest surfaces start first; each also spreads its groups over the threads.
+        std::vector<std::size_t> order(result.surfaces.size());
+        std::iota(order.begin(), order.end(), std::size_t{0});
+        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+            return result.surfaces[a].mesh.triangles.size() >
+                   result.surfaces[b].mesh.triangles.size();
+        });
+        parallel_for(order.size(), options.threads, [&](std::size_t n) {
+            const std::size_t i = order[n];
             const ObjectSurface& surface = result.surfaces[i];
             const SliceErrorMeter meter(result.contours, result.fields, surface.label,
                                         result.slice_spacing_px);
             MultiresOptions label_options = multires;
             label_options.progress = nullptr;
+            label_options.threads = options.threads;
             if (surface.verification.done && !surface.verification.ok()) {
                 label_options.max_levels = 0;  // note: collapses assume a closed manifold
                 kept[i] = "surface failed verification; kept at full resolution only";

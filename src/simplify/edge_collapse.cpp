@@ -19,11 +19,14 @@
 
 #include "core/error.h"
 #include "mesh/self_intersection.h"
+#include "simplify/detail/triangle_grid.h"
 
 namespace strata {
 
 namespace {
 
+using detail::boxes_overlap;
+using detail::TriangleGrid;
 using Tri = std::array<std::uint32_t, 3>;
 constexpr std::uint32_t kNone = 0xffffffffu;
 
@@ -49,66 +52,6 @@ struct Candidate {
 Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
     return cross(b - a, c - a);
 }
-
-/// True when the bounding boxes of two triangles overlap (touching counts).
-bool boxes_overlap(const std::array<Vec3, 3>& a, const std::array<Vec3, 3>& b) {
-    for (int axis = 0; axis < 3; ++axis) {
-        const double alo = std::min({a[0][axis], a[1][axis], a[2][axis]});
-        const double ahi = std::max({a[0][axis], a[1][axis], a[2][axis]});
-        const double blo = std::min({b[0][axis], b[1][axis], b[2][axis]});
-        const double bhi = std::max({b[0][axis], b[1][axis], b[2][axis]});
-        if (ahi < blo || bhi < alo) {
-            return false;
-        }
-    }
-    return true;
-}
-
-/// A uniform grid over triangle boxes: candidate neighbours for the intersection tests. Entries
-/// go stale when a triangle changes (it is added again where it now lies); queries return a
-/// superset, which the exact test sorts out.
-class TriangleGrid {
-public:
-    explicit TriangleGrid(double cell) : inverse_(1.0 / cell) {}
-
-    void insert(std::uint32_t id, const std::array<Vec3, 3>& t) {
-        for_cells(t, [&](std::uint64_t key) { cells_[key].push_back(id); });
-    }
-    template <class Visit>
-    void query(const std::array<Vec3, 3>& t, Visit&& visit) const {
-        for_cells(t, [&](std::uint64_t key) {
-            const auto it = cells_.find(key);
-            if (it != cells_.end()) {
-                for (const std::uint32_t id : it->second) {
-                    visit(id);
-                }
-            }
-        });
-    }
-
-private:
-    template <class Fn>
-    void for_cells(const std::array<Vec3, 3>& t, Fn&& fn) const {
-        std::array<std::int64_t, 3> lo{}, hi{};
-        for (int a = 0; a < 3; ++a) {
-            const double mn = std::min({t[0][a], t[1][a], t[2][a]});
-            const double mx = std::max({t[0][a], t[1][a], t[2][a]});
-            lo[a] = static_cast<std::int64_t>(std::floor(mn * inverse_));
-            hi[a] = static_cast<std::int64_t>(std::floor(mx * inverse_));
-        }
-        for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-            for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
-                for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-                    fn((std::uint64_t(x & 0x1fffff) << 42) | (std::uint64_t(y & 0x1fffff) << 21) |
-                       std::uint64_t(z & 0x1fffff));
-                }
-            }
-        }
-    }
-
-    double inverse_;
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
-};
 
 class Collapser {
 public:

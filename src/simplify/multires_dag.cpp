@@ -12,6 +12,9 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/parallel.h"
+#include "mesh/self_intersection.h"
+#include "simplify/detail/triangle_grid.h"
 #include "simplify/edge_collapse.h"
 
 namespace strata {
@@ -131,6 +134,11 @@ public:
             }
         }
         std::vector<Tri> all = surface.triangles;
+        double edge_sum = 0.0;
+        for (const Tri& t : all) {
+            edge_sum += norm(mesh_.positions[t[0]] - mesh_.positions[t[1]]);
+        }
+        grid_cell_ = std::max(1e-3, 4.0 * edge_sum / double(std::max<std::size_t>(all.size(), 1)));
         for (std::vector<Tri>& part : split(all)) {
             frontier_.push_back(add_cluster(0, -1, std::move(part)));
         }
@@ -138,18 +146,40 @@ public:
 
     MultiresMesh run() {
         for (std::uint32_t level = 1; level <= options_.max_levels; ++level) {
-            if (frontier_.size() <= 1 && frontier_triangles() <= options_.cluster_triangles) {
+            if (frontier_.size() <= 1 && frontier_triangles() <= options_.root_triangles) {
                 break;
             }
             const std::vector<std::vector<std::uint32_t>> groups = make_groups();
+            // Every group is simplified in parallel against the clusters of earlier levels; then,
+            // in group order, a result whose new triangles meet those of an earlier group of this
+            // level is redone against everything recorded so far. Same output for any thread
+            // count.
+            const std::size_t snapshot = mesh_.clusters.size();
+            std::vector<Attempt> attempts(groups.size());
+            parallel_for(groups.size(), options_.threads,
+                         [&](std::size_t i) { attempts[i] = attempt_group(groups[i], snapshot); });
             std::vector<std::uint32_t> next;
             bool progress = false;
-            for (const std::vector<std::uint32_t>& members : groups) {
-                if (!simplify_group(level, members, next)) {
-                    next.insert(next.end(), members.begin(), members.end());
-                } else {
-                    progress = true;
+            detail::TriangleGrid level_grid(grid_cell_);
+            std::vector<Tri> level_created;
+            for (std::size_t i = 0; i < groups.size(); ++i) {
+                Attempt& attempt = attempts[i];
+                if (attempt.shrunk && conflicts(attempt, level_grid, level_created)) {
+                    ++redone_groups_;
+                    attempt = attempt_group(groups[i], mesh_.clusters.size());
                 }
+                if (!attempt.shrunk) {
+                    next.insert(next.end(), groups[i].begin(), groups[i].end());
+                    continue;
+                }
+                for (const Tri& t : attempt.created) {
+                    level_grid.insert(
+                        std::uint32_t(level_created.size()),
+                        {mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]});
+                    level_created.push_back(t);
+                }
+                record_group(level, groups[i], attempt, next);
+                progress = true;
             }
             std::sort(next.begin(), next.end());
             frontier_ = std::move(next);
@@ -301,37 +331,45 @@ private:
         return units;
     }
 
-    /// Marks `members` and every cluster below them in `below_` with `stamp`.
-    void mark_descendants(const std::vector<std::uint32_t>& members, std::uint32_t stamp) {
-        below_.resize(mesh_.clusters.size(), 0);
+    /// Marks `members` and every cluster below them (the clusters a group's results replace).
+    std::vector<char> descendants(const std::vector<std::uint32_t>& members) const {
+        std::vector<char> below(mesh_.clusters.size(), 0);
         std::vector<std::uint32_t> stack = members;
         while (!stack.empty()) {
             const std::uint32_t c = stack.back();
             stack.pop_back();
-            if (below_[c] == stamp) {
+            if (below[c] != 0) {
                 continue;
             }
-            below_[c] = stamp;
+            below[c] = 1;
             const std::int32_t p = mesh_.clusters[c].producer;
             if (p >= 0) {
                 const MultiresGroup& g = mesh_.groups[std::size_t(p)];
                 stack.insert(stack.end(), g.consumed.begin(), g.consumed.end());
             }
         }
+        return below;
     }
 
-    /// Simplifies one group; appends its produced clusters to `next`. False when it did not
-    /// shrink enough (nothing is recorded then).
-    bool simplify_group(std::uint32_t level,
-                        const std::vector<std::uint32_t>& members,
-                        std::vector<std::uint32_t>& next) {
+    /// One group's simplification before it is recorded.
+    struct Attempt {
+        bool shrunk = false;
+        double children_error = 0.0;
+        CollapseResult result;
+        std::vector<Tri> created;  ///< triangles of the result that were not in the input
+    };
+
+    /// Simplifies the group of `members` against the triangles of clusters [0, cluster_limit)
+    /// that can be drawn with its results. Reads the builder's state only.
+    Attempt attempt_group(const std::vector<std::uint32_t>& members,
+                          std::size_t cluster_limit) const {
+        Attempt attempt;
         CollapseProblem problem;
         problem.positions = &mesh_.positions;
-        double children_error = 0.0;
         Box box;
         for (const std::uint32_t c : members) {
             const double e = cluster_error(c);
-            children_error = std::max(children_error, e);
+            attempt.children_error = std::max(attempt.children_error, e);
             for (const Tri& t : global_triangles(c)) {
                 problem.triangles.push_back(t);
                 problem.triangle_error_px.push_back(e);
@@ -342,32 +380,36 @@ private:
         }
         const std::size_t before = problem.triangles.size();
         if (before < 8) {
-            return false;
+            return attempt;
         }
         // Border: vertices of edges used once within the group.
-        std::map<std::pair<std::uint32_t, std::uint32_t>, int> edge_use;
+        std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+        edges.reserve(before * 3);
         for (const Tri& t : problem.triangles) {
             for (int i = 0; i < 3; ++i) {
-                const std::uint32_t a = std::min(t[i], t[(i + 1) % 3]);
-                const std::uint32_t b = std::max(t[i], t[(i + 1) % 3]);
-                ++edge_use[{a, b}];
+                edges.emplace_back(std::min(t[i], t[(i + 1) % 3]), std::max(t[i], t[(i + 1) % 3]));
             }
         }
-        for (const auto& [edge, count] : edge_use) {
-            if (count == 1) {
-                problem.locked.push_back(edge.first);
-                problem.locked.push_back(edge.second);
+        std::sort(edges.begin(), edges.end());
+        for (std::size_t i = 0; i < edges.size();) {
+            std::size_t j = i;
+            while (j < edges.size() && edges[j] == edges[i]) {
+                ++j;
             }
+            if (j - i == 1) {
+                problem.locked.push_back(edges[i].first);
+                problem.locked.push_back(edges[i].second);
+            }
+            i = j;
         }
         std::sort(problem.locked.begin(), problem.locked.end());
         problem.locked.erase(std::unique(problem.locked.begin(), problem.locked.end()),
                              problem.locked.end());
         // Obstacles: triangles of every cluster that can be drawn with this group's results
         // (all but the group's own and those below it) near the group.
-        const std::uint32_t stamp = ++stamp_;
-        mark_descendants(members, stamp);
-        for (std::uint32_t c = 0; c < mesh_.clusters.size(); ++c) {
-            if (below_[c] == stamp || !boxes_[c].overlaps(box)) {
+        const std::vector<char> below = descendants(members);
+        for (std::uint32_t c = 0; c < cluster_limit; ++c) {
+            if ((c < below.size() && below[c] != 0) || !boxes_[c].overlaps(box)) {
                 continue;
             }
             for (const Tri& t : global_triangles(c)) {
@@ -383,19 +425,61 @@ private:
 
         CollapseOptions collapse;
         collapse.target_triangles = before / 2;
-        collapse.max_error_px =
-            std::min(options_.max_error_px,
-                     std::max(options_.error_growth * children_error, children_error + 0.5));
-        collapse.error_floor_px = children_error;
-        CollapseResult result = collapse_edges(problem, meter_, collapse);
-        if (double(result.triangles.size()) > double(before) * (1.0 - options_.min_reduction)) {
-            return false;
+        collapse.error_floor_px = attempt.children_error;
+        collapse.max_error_px = std::min(
+            options_.max_error_px,
+            std::max(options_.error_growth * attempt.children_error, attempt.children_error + 0.5));
+        attempt.result = collapse_edges(problem, meter_, collapse);
+        attempt.shrunk = double(attempt.result.triangles.size()) <=
+                         double(before) * (1.0 - options_.min_reduction);
+        if (attempt.shrunk) {
+            std::vector<Tri> input = problem.triangles;
+            std::sort(input.begin(), input.end());
+            for (const Tri& t : attempt.result.triangles) {
+                if (!std::binary_search(input.begin(), input.end(), t)) {
+                    attempt.created.push_back(t);
+                }
+            }
         }
+        return attempt;
+    }
 
+    /// Whether a triangle `attempt` created intersects one of `others` (created by other groups of
+    /// the same level, which the attempt did not see).
+    bool conflicts(const Attempt& attempt,
+                   const detail::TriangleGrid& grid,
+                   const std::vector<Tri>& others) const {
+        auto corners = [&](const Tri& t) {
+            return std::array<Vec3, 3>{mesh_.positions[t[0]], mesh_.positions[t[1]],
+                                       mesh_.positions[t[2]]};
+        };
+        for (const Tri& t : attempt.created) {
+            const std::array<Vec3, 3> a = corners(t);
+            bool hit = false;
+            grid.query(a, [&](std::uint32_t id) {
+                if (!hit) {
+                    const std::array<Vec3, 3> b = corners(others[id]);
+                    hit = detail::boxes_overlap(a, b) && triangles_intersect(a, t, b, others[id]);
+                }
+            });
+            if (hit) {
+                return true;
+            }
+        }
+        return false;
+    }
+
+    /// Records a shrunk group: its produced clusters (appended to `next`), the geomorph targets
+    /// of its consumed clusters, its error and bounds.
+    void record_group(std::uint32_t level,
+                      const std::vector<std::uint32_t>& members,
+                      Attempt& attempt,
+                      std::vector<std::uint32_t>& next) {
+        CollapseResult& result = attempt.result;
         MultiresGroup group;
         group.level = level;
         group.consumed = members;
-        group.error_px = std::max(result.max_error_px, children_error);
+        group.error_px = std::max(result.max_error_px, attempt.children_error);
         const std::int32_t id = std::int32_t(mesh_.groups.size());
         // Where every vertex of the group goes: follow the collapses to the survivor.
         std::unordered_map<std::uint32_t, std::uint32_t> onto;
@@ -433,7 +517,6 @@ private:
             g.bounds = enclose(
                 g.bounds, p >= 0 ? mesh_.groups[std::size_t(p)].bounds : mesh_.clusters[c].bounds);
         }
-        return true;
     }
 
     const SliceErrorMeter& meter_;
@@ -441,8 +524,8 @@ private:
     MultiresMesh mesh_;
     std::vector<Box> boxes_;  ///< per cluster
     std::vector<std::uint32_t> frontier_;
-    std::vector<std::uint32_t> below_;
-    std::uint32_t stamp_ = 0;
+    double grid_cell_ = 1.0;  ///< cell of the grids over a level's new triangles
+    std::size_t redone_groups_ = 0;
 };
 
 }  // namespace

@@ -79,6 +79,9 @@ struct MultiresMesh {
 struct MultiresOptions {
     std::size_t cluster_triangles = 1024;  ///< target triangles per cluster
     std::size_t group_clusters = 4;        ///< clusters simplified together (a power of two)
+    /// Levels are added until the coarsest is one cluster of at most this many triangles (or no
+    /// group can shrink any more): the base mesh every viewer shows.
+    std::size_t root_triangles = 128;
     /// A group is simplified until half its triangles remain or the next collapse would raise its
     /// error above max(error_growth * e, e + 0.5 px), e being the error of the clusters it
     /// consumes: each level may at most double the error, so the levels form an even ladder.
@@ -88,7 +91,8 @@ struct MultiresOptions {
     double max_error_px = std::numeric_limits<double>::infinity();
     double min_reduction = 0.15;  ///< least fraction of triangles a group must lose
     std::uint32_t max_levels = 24;
-    ProgressFn progress;  ///< called per level ("simplify levels")
+    unsigned threads = 0;  ///< worker threads, 0 = all cores; output identical for any count
+    ProgressFn progress;   ///< called per level ("simplify levels")
 };
 
 /// Builds the multiresolution model of `surface` (a closed, oriented, self-intersection-free
