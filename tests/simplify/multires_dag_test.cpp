@@ -137,5 +137,31 @@ TEST(MultiresDag, GeomorphReproducesCoarseClusters) {
     }
 }
 
+TEST(MultiresDag, IdenticalForAnyThreadCount) {
+    const Phantom phantom = make_phantom("torus");
+    std::vector<MultiresMesh> models;
+    for (const unsigned threads : {1u, 2u}) {
+        Report report;
+        ReconstructOptions options;
+        options.threads = threads;
+        options.multires.cluster_triangles = 128;
+        models.push_back(reconstruct(phantom.stack, options, report).models.at(0));
+    }
+    const MultiresMesh& a = models[0];
+    const MultiresMesh& b = models[1];
+    ASSERT_EQ(a.clusters.size(), b.clusters.size());
+    ASSERT_EQ(a.groups.size(), b.groups.size());
+    EXPECT_GT(a.groups.size(), 8u);
+    for (std::size_t c = 0; c < a.clusters.size(); ++c) {
+        EXPECT_EQ(a.clusters[c].vertices, b.clusters[c].vertices) << "cluster " << c;
+        EXPECT_EQ(a.clusters[c].triangles, b.clusters[c].triangles) << "cluster " << c;
+        EXPECT_EQ(a.clusters[c].coarse_vertices, b.clusters[c].coarse_vertices) << "cluster " << c;
+    }
+    for (std::size_t g = 0; g < a.groups.size(); ++g) {
+        EXPECT_EQ(a.groups[g].error_px, b.groups[g].error_px) << "group " << g;
+        EXPECT_EQ(a.groups[g].consumed, b.groups[g].consumed) << "group " << g;
+    }
+}
+
 }  // namespace
 }  // namespace strata
