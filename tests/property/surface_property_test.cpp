@@ -23,67 +23,11 @@
 #include "mesh/self_intersection.h"
 #include "pipeline/reconstruct.h"
 #include "support/property.h"
+#include "support/random_blobs.h"
 #include "support/reference_topology.h"
 
 namespace strata {
 namespace {
-
-double uniform(std::mt19937& rng, double lo, double hi) {
-    return std::uniform_real_distribution<double>(lo, hi)(rng);
-}
-
-struct Blob {
-    double cx, cy, cz, rx, ry, rz;
-    bool inside(double x, double y, double z) const {
-        const double u = (x - cx) / rx;
-        const double v = (y - cy) / ry;
-        const double w = (z - cz) / rz;
-        return u * u + v * v + w * w <= 1.0;
-    }
-};
-
-SliceStack random_stack(std::mt19937& rng, double& d) {
-    SliceStack stack;
-    stack.width = 40;
-    stack.height = 40;
-    stack.depth = std::uniform_int_distribution<std::uint32_t>(3, 12)(rng);
-    d = std::uniform_int_distribution<int>(1, 10)(rng);
-    const double z_extent = (stack.depth - 1) * d;
-    std::vector<Blob> solids;
-    std::vector<Blob> holes;
-    const int n = std::uniform_int_distribution<int>(1, 4)(rng);
-    for (int i = 0; i < n; ++i) {
-        solids.push_back({uniform(rng, 8, 32), uniform(rng, 8, 32), uniform(rng, 0, z_extent),
-                          uniform(rng, 2, 12), uniform(rng, 2, 12),
-                          uniform(rng, 0.6, 1.0) * std::max(2.0, z_extent / 2)});
-    }
-    const int m = std::uniform_int_distribution<int>(0, 2)(rng);
-    for (int i = 0; i < m; ++i) {
-        const Blob& s = solids[std::size_t(i) % solids.size()];
-        holes.push_back({s.cx + uniform(rng, -3, 3), s.cy + uniform(rng, -3, 3),
-                         s.cz + uniform(rng, -d, d), uniform(rng, 1.5, 6), uniform(rng, 1.5, 6),
-                         uniform(rng, 0.3, 1.5) * std::max(d, z_extent / 3)});
-    }
-    stack.labels.assign(std::size_t(stack.width) * stack.height * stack.depth, 0);
-    for (std::uint32_t k = 0; k < stack.depth; ++k) {
-        for (std::uint32_t j = 0; j < stack.height; ++j) {
-            for (std::uint32_t i = 0; i < stack.width; ++i) {
-                const double x = i + 0.5;
-                const double y = j + 0.5;
-                const double z = k * d;
-                const bool in = std::any_of(solids.begin(), solids.end(),
-                                            [&](const Blob& b) { return b.inside(x, y, z); }) &&
-                                std::none_of(holes.begin(), holes.end(),
-                                             [&](const Blob& b) { return b.inside(x, y, z); });
-                stack.labels[(std::size_t(k) * stack.height + j) * stack.width + i] = in ? 1 : 0;
-            }
-        }
-    }
-    stack.index_to_world.linear = {{{1, 0, 0}, {0, 1, 0}, {0, 0, d}}};
-    stack.label_table.push_back({1, "blob", {200, 80, 80}});
-    stack.source = "random";
-    return stack;
-}
 
 TEST(SurfaceProperty, RandomShapesGiveValidSurfacesWithReferenceTopology) {
     const int iterations = test::property_iterations(1000);
@@ -96,8 +40,8 @@ TEST(SurfaceProperty, RandomShapesGiveValidSurfacesWithReferenceTopology) {
     for (int it = 0; it < iterations; ++it) {
         const std::uint32_t seed = seeds();
         std::mt19937 rng(seed);
-        double d = 1;
-        const SliceStack stack = random_stack(rng, d);
+        const SliceStack stack = test::random_blob_stack(rng);
+        const double d = stack.spacing_mm().z;  // slice spacing, px
         if (std::none_of(stack.labels.begin(), stack.labels.end(),
                          [](std::uint16_t v) { return v != 0; })) {
             continue;
