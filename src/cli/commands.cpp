@@ -333,6 +333,7 @@ int run_build(const BuildOptions& options) {
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
+    reconstruct_options.multires.cluster_triangles = options.cluster_triangles;
     reconstruct_options.progress = progress.callback();
     const Reconstruction result = reconstruct(stack, reconstruct_options, report);
     progress.finish();

@@ -23,10 +23,11 @@ struct BuildOptions {
     std::optional<Vec3> spacing_mm;                   ///< --spacing override (mm along x, y, z)
     std::vector<std::string> labels;                  ///< --labels: values or names; empty: all
     std::filesystem::path color_table;                ///< --color-table file
-    std::filesystem::path debug_dir;  ///< --debug-dir: per-slice debug pictures; empty: none
-    double tolerance_px = 0.5;        ///< contour simplification tolerance, pixels
-    unsigned threads = 0;             ///< worker threads, 0 = all cores
-    std::string mesh_format = "ply";  ///< per-object mesh files: ply, obj or stl
+    std::filesystem::path debug_dir;       ///< --debug-dir: per-slice debug pictures; empty: none
+    double tolerance_px = 0.5;             ///< contour simplification tolerance, pixels
+    unsigned threads = 0;                  ///< worker threads, 0 = all cores
+    std::string mesh_format = "ply";       ///< per-object mesh files: ply, obj or stl
+    std::size_t cluster_triangles = 1024;  ///< target triangles per multiresolution cluster
     OutputOptions output;
 };
 

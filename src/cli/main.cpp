@@ -75,6 +75,11 @@ int main(int argc, char** argv) {
                      "Format of the per-object full-resolution meshes in OUTPUT/meshes")
         ->check(CLI::IsMember({"ply", "obj", "stl"}))
         ->capture_default_str();
+    build_cmd
+        ->add_option("--cluster-triangles", build.cluster_triangles,
+                     "Target triangles per cluster of the multiresolution model")
+        ->check(CLI::Range(std::size_t{16}, std::size_t{1} << 20))
+        ->capture_default_str();
     add_output_flags(*build_cmd, build.output);
 
     strata::cli::PhantomCommandOptions phantom;

@@ -165,7 +165,6 @@ public:
             for (std::size_t i = 0; i < groups.size(); ++i) {
                 Attempt& attempt = attempts[i];
                 if (attempt.shrunk && conflicts(attempt, level_grid, level_created)) {
-                    ++redone_groups_;
                     attempt = attempt_group(groups[i], mesh_.clusters.size());
                 }
                 if (!attempt.shrunk) {
@@ -525,7 +524,6 @@ private:
     std::vector<Box> boxes_;  ///< per cluster
     std::vector<std::uint32_t> frontier_;
     double grid_cell_ = 1.0;  ///< cell of the grids over a level's new triangles
-    std::size_t redone_groups_ = 0;
 };
 
 }  // namespace
