@@ -35,7 +35,7 @@
 #include "mesh/self_intersection.h"
 #include "pipeline/reconstruct.h"
 #include "simplify/multires_dag.h"
-#include "support/cut_error.h"
+#include "support/cut_checks.h"
 #include "support/property.h"
 #include "support/random_blobs.h"
 
@@ -73,12 +73,6 @@ void draw_second_label(std::mt19937& rng, SliceStack& stack) {
         }
     }
     stack.label_table.push_back({2, "second", {80, 80, 200}});
-}
-
-std::vector<int> sorted_genera(const MeshReport& report) {
-    std::vector<int> genera = component_genera(report);
-    std::sort(genera.begin(), genera.end());
-    return genera;
 }
 
 /// The error bound of a set of clusters: the largest error of their producers.
@@ -204,23 +198,8 @@ std::size_t check_cut(ModelUnderTest& model,
         return mesh.triangles.size();
     }
     ++tally.cuts;
-    const MeshReport report = check_mesh(mesh);
-    EXPECT_TRUE(is_closed_manifold(report)) << report.problems.front();
-    EXPECT_EQ(sorted_genera(report), model.genera);
-    EXPECT_GT(report.signed_volume, 0.0);
-    const SelfIntersections hits = find_self_intersections(mesh, 5);
-    EXPECT_TRUE(hits.is_free()) << hits.pairs.size() << " pairs, e.g. triangles "
-                                << (hits.pairs.empty() ? 0 : hits.pairs[0].first) << " and "
-                                << (hits.pairs.empty() ? 0 : hits.pairs[0].second) << ", "
-                                << hits.degenerate_triangles.size() << " degenerate";
-    const ObjectSurface& surface = model.reconstruction.surfaces[model.index];
-    const test::CutErrorReport measured = test::measure_cut_error(
-        mesh, model.reconstruction.contours, surface.label, model.reconstruction.slice_spacing_px);
-    EXPECT_TRUE(measured.problems.empty()) << measured.problems.front();
-    EXPECT_LE(measured.max_px(), cut.error_px + 1e-9)
-        << "section " << measured.max_section_px << " px, cap " << measured.max_cap_px
-        << " px, worst on slice " << measured.worst_slice << " at (" << measured.worst_point.x
-        << ", " << measured.worst_point.y << ")";
+    const test::CutErrorReport measured =
+        test::expect_valid_cut(mesh, model.reconstruction, model.index, model.genera, cut.error_px);
     if (cut.error_px > 0.0) {
         const double ratio = measured.max_px() / cut.error_px;
         tally.max_ratio = std::max(tally.max_ratio, ratio);
@@ -380,7 +359,7 @@ TEST(MultiresProperty, RandomShapesGiveValidCutsWithinTheirBounds) {
                 ++unverified;
                 continue;
             }
-            ModelUnderTest model{result, i, sorted_genera(check_mesh(surface.mesh)), {}};
+            ModelUnderTest model{result, i, test::sorted_genera(check_mesh(surface.mesh)), {}};
             check_model(model, rng, tally);
         }
     }

@@ -22,17 +22,11 @@
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
 #include "simplify/multires_dag.h"
-#include "support/cut_error.h"
+#include "support/cut_checks.h"
 #include "support/test_paths.h"
 
 namespace strata {
 namespace {
-
-std::vector<int> sorted_genera(const MeshReport& report) {
-    std::vector<int> genera = component_genera(report);
-    std::sort(genera.begin(), genera.end());
-    return genera;
-}
 
 /// What the checked cuts of one stack came to.
 struct Tally {
@@ -53,22 +47,7 @@ void check_cut(const Reconstruction& r,
                Tally& tally) {
     SCOPED_TRACE(what);
     const TriMesh mesh = cut_mesh(r.models[i], cut);
-    const MeshReport report = check_mesh(mesh);
-    EXPECT_TRUE(is_closed_manifold(report)) << report.problems.front();
-    EXPECT_EQ(sorted_genera(report), genera);
-    EXPECT_GT(report.signed_volume, 0.0);
-    const SelfIntersections hits = find_self_intersections(mesh, 5);
-    EXPECT_TRUE(hits.is_free()) << hits.pairs.size() << " pairs, e.g. triangles "
-                                << (hits.pairs.empty() ? 0 : hits.pairs[0].first) << " and "
-                                << (hits.pairs.empty() ? 0 : hits.pairs[0].second) << ", "
-                                << hits.degenerate_triangles.size() << " degenerate";
-    const test::CutErrorReport measured =
-        test::measure_cut_error(mesh, r.contours, r.surfaces[i].label, r.slice_spacing_px);
-    EXPECT_TRUE(measured.problems.empty()) << measured.problems.front();
-    EXPECT_LE(measured.max_px(), cut.error_px + 1e-9)
-        << "section " << measured.max_section_px << " px, cap " << measured.max_cap_px
-        << " px, worst on slice " << measured.worst_slice << " at (" << measured.worst_point.x
-        << ", " << measured.worst_point.y << ")";
+    const test::CutErrorReport measured = test::expect_valid_cut(mesh, r, i, genera, cut.error_px);
     ++tally.cuts;
     if (cut.error_px > 0.0) {
         const double ratio = measured.max_px() / cut.error_px;
@@ -120,7 +99,7 @@ Tally check_stack(const SliceStack& stack, int cameras) {
             continue;
         }
         const MultiresMesh& m = r.models[i];
-        const std::vector<int> genera = sorted_genera(check_mesh(surface.mesh));
+        const std::vector<int> genera = test::sorted_genera(check_mesh(surface.mesh));
         const std::uint32_t levels = level_count(m);
         tally.max_levels = std::max(tally.max_levels, levels);
         tally.triangles += surface.mesh.triangles.size();

@@ -1,0 +1,57 @@
+#pragma once
+
+// The checks every cut of a multiresolution model must pass, for tests: validity and topology
+// (mesh core, exact self-intersection) and the declared error bound against the independent
+// oracle (support/cut_error.h).
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "mesh/mesh_checks.h"
+#include "mesh/self_intersection.h"
+#include "pipeline/reconstruct.h"
+#include "support/cut_error.h"
+
+namespace strata::test {
+
+/// Component genera in increasing order (comparable whatever the component order).
+inline std::vector<int> sorted_genera(const MeshReport& report) {
+    std::vector<int> genera = component_genera(report);
+    std::sort(genera.begin(), genera.end());
+    return genera;
+}
+
+/// Expects `mesh`, a cut of the model of surface `i` of `r` declaring `declared_px`, to be a
+/// closed oriented manifold with the sorted component genera `genera`, positive volume and no
+/// self-intersection (exact), and within `declared_px` of the original contours by the oracle.
+/// Returns the oracle's measurement.
+inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
+                                       const Reconstruction& r,
+                                       std::size_t i,
+                                       const std::vector<int>& genera,
+                                       double declared_px) {
+    const MeshReport report = check_mesh(mesh);
+    EXPECT_TRUE(is_closed_manifold(report))
+        << (report.problems.empty() ? std::string() : report.problems.front());
+    EXPECT_EQ(sorted_genera(report), genera);
+    EXPECT_GT(report.signed_volume, 0.0);
+    const SelfIntersections hits = find_self_intersections(mesh, 5);
+    EXPECT_TRUE(hits.is_free()) << hits.pairs.size() << " pairs, e.g. triangles "
+                                << (hits.pairs.empty() ? 0 : hits.pairs[0].first) << " and "
+                                << (hits.pairs.empty() ? 0 : hits.pairs[0].second) << ", "
+                                << hits.degenerate_triangles.size() << " degenerate";
+    const CutErrorReport measured =
+        measure_cut_error(mesh, r.contours, r.surfaces[i].label, r.slice_spacing_px);
+    EXPECT_TRUE(measured.problems.empty())
+        << (measured.problems.empty() ? std::string() : measured.problems.front());
+    EXPECT_LE(measured.max_px(), declared_px + 1e-9)
+        << "section " << measured.max_section_px << " px, cap " << measured.max_cap_px
+        << " px, worst on slice " << measured.worst_slice << " at (" << measured.worst_point.x
+        << ", " << measured.worst_point.y << ")";
+    return measured;
+}
+
+}  // namespace strata::test
