@@ -211,19 +211,6 @@ std::size_t check_cut(ModelUnderTest& model,
     return mesh.triangles.size();
 }
 
-/// The centre and radius of the box around every vertex of `m`.
-Sphere box_sphere(const MultiresMesh& m) {
-    Vec3 lo{kInfinity, kInfinity, kInfinity};
-    Vec3 hi = -1.0 * lo;
-    for (const Vec3& p : m.positions) {
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = std::min(lo[a], p[a]);
-            hi[a] = std::max(hi[a], p[a]);
-        }
-    }
-    return {0.5 * (lo + hi), 0.5 * norm(hi - lo)};
-}
-
 /// A uniformly distributed unit vector.
 Vec3 random_direction(std::mt19937& rng) {
     std::normal_distribution<double> normal;
@@ -282,7 +269,7 @@ void check_model(ModelUnderTest& model, std::mt19937& rng, Tally& tally) {
     }
 
     // Regions of interest: random spheres, random bounds inside and outside.
-    const Sphere box = box_sphere(m);
+    const Sphere box = test::box_sphere(m);
     const double top = taus.size() > 2 ? taus[taus.size() - 2] : 1.0;  // largest finite error
     for (int r = 0; r < 3; ++r) {
         const Sphere region{box.center + test::uniform(rng, 0, box.radius) * random_direction(rng),

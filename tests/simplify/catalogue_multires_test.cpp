@@ -61,21 +61,13 @@ void check_cut(const Reconstruction& r,
 /// A camera at 1.05 to 6 times the radius of the box around `m`'s vertices from its centre,
 /// in a uniformly random direction.
 ScreenCamera random_camera(const MultiresMesh& m, std::mt19937& rng) {
-    constexpr double kInfinity = std::numeric_limits<double>::infinity();
-    Vec3 lo{kInfinity, kInfinity, kInfinity};
-    Vec3 hi = -1.0 * lo;
-    for (const Vec3& p : m.positions) {
-        for (int a = 0; a < 3; ++a) {
-            lo[a] = std::min(lo[a], p[a]);
-            hi[a] = std::max(hi[a], p[a]);
-        }
-    }
+    const Sphere box = test::box_sphere(m);
     std::normal_distribution<double> normal;
     Vec3 direction{normal(rng), normal(rng), normal(rng)};
     direction = (1.0 / std::max(norm(direction), 1e-12)) * direction;
     const double distance = std::uniform_real_distribution<double>(1.05, 6.0)(rng);
     ScreenCamera camera;
-    camera.position = 0.5 * (lo + hi) + distance * 0.5 * norm(hi - lo) * direction;
+    camera.position = box.center + distance * box.radius * direction;
     return camera;
 }
 

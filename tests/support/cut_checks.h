@@ -5,6 +5,7 @@
 // oracle (support/cut_error.h).
 
 #include <algorithm>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -13,9 +14,24 @@
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
 #include "pipeline/reconstruct.h"
+#include "simplify/multires_dag.h"
 #include "support/cut_error.h"
 
 namespace strata::test {
+
+/// The sphere through the corners of the box around every vertex of `m`.
+inline Sphere box_sphere(const MultiresMesh& m) {
+    constexpr double kInfinity = std::numeric_limits<double>::infinity();
+    Vec3 lo{kInfinity, kInfinity, kInfinity};
+    Vec3 hi = -1.0 * lo;
+    for (const Vec3& p : m.positions) {
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], p[a]);
+            hi[a] = std::max(hi[a], p[a]);
+        }
+    }
+    return {0.5 * (lo + hi), 0.5 * norm(hi - lo)};
+}
 
 /// Component genera in increasing order (comparable whatever the component order).
 inline std::vector<int> sorted_genera(const MeshReport& report) {
