@@ -100,6 +100,78 @@ void verify_surface(const SliceStack& stack, ObjectSurface& surface) {
     }
 }
 
+namespace {
+
+/// The quantize stage for one surface, with verification: snaps it to the grid of
+/// `options.step` and verifies the snapped surface. When the surface does not snap, or its
+/// snapped form fails verification while the original passes, the step is halved (up to
+/// `options.max_halvings` times); failing that, the original is kept unsnapped. Returns why the
+/// surface stayed unsnapped (empty when it was snapped or quantization is off).
+std::string quantize_and_verify(const SliceStack& stack,
+                                double slice_spacing_px,
+                                const QuantizeOptions& options,
+                                bool verify,
+                                ObjectSurface& surface) {
+    if (!options.enabled || surface.mesh.positions.empty()) {
+        if (verify) {
+            verify_surface(stack, surface);
+        }
+        return {};
+    }
+    const TriMesh original = surface.mesh;
+    std::string why;
+    bool original_checked = false;
+    double step = options.step;
+    for (unsigned attempt = 0; attempt <= options.max_halvings; ++attempt, step /= 2.0) {
+        GridSnap snap;
+        if (!snap_to_grid(original, slice_spacing_px, step, snap, why)) {
+            continue;
+        }
+        surface.mesh = std::move(snap.mesh);
+        surface.grid_step = step;
+        surface.grid_shift_px = snap.max_plane_shift_px;
+        if (!verify) {
+            // note: snapping may push nearly touching sheets through each other; without the
+            // full verification, check that much (exact)
+            if (!has_self_intersections(surface.mesh)) {
+                return {};
+            }
+            why = "the surface snapped to the grid of step " + std::to_string(step) +
+                  " intersects itself";
+            continue;
+        }
+        verify_surface(stack, surface);
+        if (surface.verification.ok()) {
+            return {};
+        }
+        why = "the surface snapped to the grid of step " + std::to_string(step) +
+              " failed verification: " + surface.verification.problem;
+        if (!original_checked) {
+            // note: a surface that fails unsnapped too keeps the triangulation's problem; snapping
+            // finer cannot help then.
+            ObjectSurface unsnapped = surface;
+            unsnapped.mesh = original;
+            verify_surface(stack, unsnapped);
+            original_checked = true;
+            if (!unsnapped.verification.ok()) {
+                surface = std::move(unsnapped);
+                surface.grid_step = 0.0;
+                surface.grid_shift_px = 0.0;
+                return {};
+            }
+        }
+    }
+    surface.mesh = original;
+    surface.grid_step = 0.0;
+    surface.grid_shift_px = 0.0;
+    if (verify) {
+        verify_surface(stack, surface);
+    }
+    return "kept unsnapped (no progressive export): " + why;
+}
+
+}  // namespace
+
 Reconstruction reconstruct(const SliceStack& stack,
                            const ReconstructOptions& options,
                            Report& report) {
@@ -138,10 +210,21 @@ Reconstruction reconstruct(const SliceStack& stack,
     result.surfaces = triangulate_surfaces(stack, result.contours, result.fields,
                                            result.medial_axes, triangulate_options);
     clock.done("triangulate");
+    if (options.quantize.enabled || options.verify) {
+        std::vector<std::string> unsnapped(result.surfaces.size());
+        parallel_for(result.surfaces.size(), options.threads, [&](std::size_t i) {
+            unsnapped[i] = quantize_and_verify(stack, result.slice_spacing_px, options.quantize,
+                                               options.verify, result.surfaces[i]);
+        });
+        clock.done(options.quantize.enabled ? "quantize+verify" : "verify");
+        for (std::size_t i = 0; i < unsnapped.size(); ++i) {
+            if (!unsnapped[i].empty()) {
+                report.warn("quantize", "label " + std::to_string(result.surfaces[i].label),
+                            unsnapped[i]);
+            }
+        }
+    }
     if (options.verify) {
-        parallel_for(result.surfaces.size(), options.threads,
-                     [&](std::size_t i) { verify_surface(stack, result.surfaces[i]); });
-        clock.done("verify");
         for (const ObjectSurface& surface : result.surfaces) {
             if (!surface.verification.ok()) {
                 report.warn("verify", "label " + std::to_string(surface.label),
@@ -175,8 +258,10 @@ Reconstruction reconstruct(const SliceStack& stack,
                 kept[i] = "surface failed verification; kept at full resolution only";
             }
             result.models[i] = build_multires_mesh(
-                surface.mesh, meter, full_resolution_error_px(result.contours, surface.label),
+                surface.mesh, meter,
+                full_resolution_error_px(result.contours, surface.label) + surface.grid_shift_px,
                 label_options);
+            result.models[i].grid_step = surface.grid_step;
             if (options.progress) {
                 const std::lock_guard<std::mutex> lock(progress_mutex);
                 options.progress("simplify labels", ++done, result.surfaces.size());

@@ -10,6 +10,7 @@
 #include "distance/distance_field.h"
 #include "input/slice_stack.h"
 #include "medial/medial_axis.h"
+#include "quantize/snap_to_grid.h"
 #include "simplify/multires_dag.h"
 #include "triangulate/surface.h"
 
@@ -21,6 +22,9 @@ struct ReconstructOptions {
     DistanceOptions distance;
     MedialOptions medial;
     TriangulateOptions triangulate;  ///< slice spacing is taken from the stack
+    /// Snap every surface to a dyadic grid (before verification, so the checks see the snapped
+    /// surface); its full-resolution error bound grows by the largest in-plane move.
+    QuantizeOptions quantize;
     /// Check every surface after triangulation: manifold, outward, no self-intersection (exact),
     /// components and genus of the reference volume R. Failures become warnings.
     bool verify = true;

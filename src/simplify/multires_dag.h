@@ -63,6 +63,10 @@ struct MultiresMesh {
     std::vector<MultiresCluster> clusters;
     std::vector<MultiresGroup> groups;      ///< in creation order: a group's children come first
     double full_resolution_error_px = 0.0;  ///< bound of the level-0 clusters
+    /// Positions lie on the grid of this step (x, y multiples of it in px, z of it times the slice
+    /// spacing; quantize/snap_to_grid.h), 0: not snapped. Collapses keep positions, so every level
+    /// lies on the surface's grid.
+    double grid_step = 0.0;
 
     std::vector<std::uint32_t> roots() const {
         std::vector<std::uint32_t> result;

@@ -64,6 +64,11 @@ struct ObjectSurface {
         std::string problem;                 ///< first failed check, empty when all pass
         bool ok() const { return done && problem.empty(); }
     } verification;
+
+    /// Set by the quantize stage (quantize/snap_to_grid.h): the grid step the positions lie on
+    /// (0: not snapped) and the largest in-plane move of a slice-plane vertex it caused.
+    double grid_step = 0.0;
+    double grid_shift_px = 0.0;
 };
 
 /// Triangulates every label of the stack (paper section 5) into one closed surface each.

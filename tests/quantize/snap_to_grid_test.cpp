@@ -1,0 +1,143 @@
+#include "quantize/snap_to_grid.h"
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "mesh/mesh_checks.h"
+#include "phantom/catalogue.h"
+#include "pipeline/reconstruct.h"
+
+namespace strata {
+namespace {
+
+bool is_multiple(double value, double step) {
+    const double q = value / step;
+    return q == std::nearbyint(q);
+}
+
+/// z / d is a multiple of `step` up to the rounding of z = (q step) d.
+bool is_slice_multiple(double z, double d, double step) {
+    const double q = z / d / step;
+    return std::abs(q - std::nearbyint(q)) < 1e-9 * (1.0 + std::abs(q));
+}
+
+/// Random vertices: a third on slice planes at contour-grid points (multiples of 1/2), a third on
+/// planes anywhere, a third between planes at least 0.05 slices away from them.
+TriMesh random_vertices(std::uint32_t seed, double d, std::size_t count) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> coordinate(-300.0, 300.0);
+    std::uniform_int_distribution<int> slice(0, 40);
+    std::uniform_real_distribution<double> between(0.05, 0.95);
+    TriMesh mesh;
+    for (std::size_t i = 0; i < count; ++i) {
+        const int k = slice(rng);
+        switch (i % 3) {
+            case 0:
+                mesh.positions.push_back({std::nearbyint(2.0 * coordinate(rng)) / 2.0,
+                                          std::nearbyint(2.0 * coordinate(rng)) / 2.0, k * d});
+                break;
+            case 1:
+                mesh.positions.push_back({coordinate(rng), coordinate(rng), k * d});
+                break;
+            default:
+                mesh.positions.push_back(
+                    {coordinate(rng), coordinate(rng), (k + between(rng)) * d});
+        }
+    }
+    return mesh;
+}
+
+TEST(SnapToGrid, VerticesLandOnTheGridWithinHalfAStepAndPlanesAreKept) {
+    for (const double d : {1.0, 2.5, 3.0 / 0.7, 10.0}) {
+        const TriMesh mesh = random_vertices(7, d, 3000);
+        GridSnap snap;
+        std::string why;
+        ASSERT_TRUE(snap_to_grid(mesh, d, 1.0 / 16.0, snap, why)) << why;
+        ASSERT_EQ(snap.mesh.positions.size(), mesh.positions.size());
+        double plane_shift = 0.0;
+        for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+            const Vec3 p = mesh.positions[v];
+            const Vec3 q = snap.mesh.positions[v];
+            EXPECT_TRUE(is_multiple(q.x, snap.step) && is_multiple(q.y, snap.step)) << v;
+            EXPECT_TRUE(is_slice_multiple(q.z, d, snap.step)) << v << " z " << q.z / d;
+            EXPECT_LE(std::abs(q.x - p.x), snap.step / 2.0);
+            EXPECT_LE(std::abs(q.y - p.y), snap.step / 2.0);
+            EXPECT_LE(std::abs(q.z - p.z), snap.step / 2.0 * d * (1.0 + 1e-12));
+            const double k = std::nearbyint(p.z / d);
+            const bool on_plane = k * d == p.z;
+            if (on_plane) {
+                EXPECT_EQ(q.z, p.z) << "a slice-plane vertex left its plane";
+                plane_shift = std::max(plane_shift, std::hypot(q.x - p.x, q.y - p.y));
+            } else {
+                EXPECT_NE(std::nearbyint(q.z / d) * d, q.z) << "landed on a plane";
+            }
+            if (v % 3 == 0) {
+                EXPECT_EQ(p, q) << "a contour-grid point moved";
+            }
+        }
+        EXPECT_EQ(snap.max_plane_shift_px, plane_shift);
+        EXPECT_LE(snap.max_plane_shift_px, snap.step / std::sqrt(2.0));
+    }
+}
+
+TEST(SnapToGrid, RefusesMergingVertices) {
+    TriMesh mesh;
+    mesh.positions = {{1.0, 1.0, 0.0}, {1.01, 1.0, 0.0}, {5.0, 5.0, 0.0}};
+    mesh.triangles = {{0, 1, 2}};
+    GridSnap snap;
+    std::string why;
+    EXPECT_FALSE(snap_to_grid(mesh, 1.0, 1.0 / 16.0, snap, why));
+    EXPECT_NE(why.find("would share the grid point"), std::string::npos) << why;
+    EXPECT_TRUE(snap_to_grid(mesh, 1.0, 1.0 / 256.0, snap, why)) << why;
+}
+
+TEST(SnapToGrid, RefusesVerticesThatWouldLandOnAPlane) {
+    TriMesh mesh;
+    mesh.positions = {{0.0, 0.0, 0.0}, {4.0, 0.0, 2.0 * 0.99}, {0.0, 4.0, 2.0}};
+    mesh.triangles = {{0, 1, 2}};
+    GridSnap snap;
+    std::string why;
+    EXPECT_FALSE(snap_to_grid(mesh, 2.0, 1.0 / 16.0, snap, why));
+    EXPECT_NE(why.find("would land on plane 1"), std::string::npos) << why;
+    EXPECT_TRUE(snap_to_grid(mesh, 2.0, 1.0 / 128.0, snap, why)) << why;
+}
+
+TEST(SnapToGrid, RejectsStepsThatAreNotPowersOfTwo) {
+    TriMesh mesh;
+    GridSnap snap;
+    std::string why;
+    EXPECT_THROW(snap_to_grid(mesh, 1.0, 0.1, snap, why), Error);
+    EXPECT_THROW(snap_to_grid(mesh, 1.0, 1.0, snap, why), Error);
+    EXPECT_THROW(snap_to_grid(mesh, 0.0, 1.0 / 16.0, snap, why), Error);
+}
+
+// The pipeline snaps every catalogue surface used here and verifies the snapped surface: closed,
+// manifold, no self-intersection, the reference topology.
+TEST(SnapToGrid, PipelineSurfacesAreSnappedAndVerified) {
+    for (const char* name : {"torus", "t36_organ_like", "branching", "hollow_sphere"}) {
+        const Phantom phantom = make_phantom(name);
+        ReconstructOptions options;
+        options.simplify = false;
+        Report report;
+        const Reconstruction result = reconstruct(phantom.stack, options, report);
+        for (const ObjectSurface& surface : result.surfaces) {
+            EXPECT_EQ(surface.grid_step, options.quantize.step) << name;
+            EXPECT_TRUE(surface.verification.ok()) << name << ": " << surface.verification.problem;
+            EXPECT_LE(surface.grid_shift_px, surface.grid_step / std::sqrt(2.0));
+            for (const Vec3& p : surface.mesh.positions) {
+                ASSERT_TRUE(is_multiple(p.x, surface.grid_step) &&
+                            is_multiple(p.y, surface.grid_step) &&
+                            is_slice_multiple(p.z, result.slice_spacing_px, surface.grid_step))
+                    << name;
+            }
+        }
+    }
+}
+
+}  // namespace
+}  // namespace strata
