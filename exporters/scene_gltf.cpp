@@ -8,7 +8,6 @@
 #include "exporters/scene_gltf.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <cstddef>
@@ -17,7 +16,6 @@
 #include <string>
 #include <string_view>
 #include <system_error>
-#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
@@ -25,24 +23,20 @@
 #include "core/atomic_write.h"
 #include "core/error.h"
 #include "core/file_names.h"
+#include "exporters/detail/gltf_common.h"
 
 namespace strata {
 
 namespace {
 
+using detail::srgb_to_linear;
+using detail::staging_name;
+using detail::to_float;
+using detail::uri_encode;
+
 constexpr double kRoughness = 0.6;
 constexpr std::size_t kMaxShortVertices = 65535;  // index 65535 is the primitive restart value
 constexpr std::size_t kMaxIntVertices = std::numeric_limits<std::uint32_t>::max();
-
-/// LPS millimetres -> glTF metres, column-major (glTF `matrix`): the columns are the images of
-/// +x (left -> glTF +X), +y (posterior -> glTF -Z) and +z (superior -> glTF +Y), times 0.001.
-/// Determinant +1e-9: a rotation with uniform scale, not a mirror.
-const std::vector<double> kPatientToGltf{
-    0.001, 0,     0,      0,  // image of +x_LPS
-    0,     0,     -0.001, 0,  // image of +y_LPS
-    0,     0.001, 0,      0,  // image of +z_LPS
-    0,     0,     0,      1,
-};
 
 [[noreturn]] void fail(ErrorCode code, const std::filesystem::path& path, const std::string& what) {
     throw Error(code, path.string() + ": " + what);
@@ -56,17 +50,6 @@ std::string object_name(const SceneObject& object) {
 std::string describe(const SceneObject& object, std::size_t index) {
     return "object " + std::to_string(index) + " '" + object_name(object) + "' (label " +
            std::to_string(object.label) + ")";
-}
-
-/// sRGB-encoded channel in [0, 1] -> linear (IEC 61966-2-1).
-double srgb_to_linear(double c) {
-    return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
-}
-
-// note: one coordinate per call (and strata_target_defaults' -fno-tree-slp-vectorize): GCC
-// 12.2 at -O2 may drop the float rounding of adjacent double -> float conversions.
-[[gnu::noinline]] float to_float(double x) {
-    return static_cast<float>(x);
 }
 
 void check_object(const std::filesystem::path& path, const SceneObject& object, std::size_t index) {
@@ -266,23 +249,6 @@ int add_object(tinygltf::Model& model,
     return static_cast<int>(model.nodes.size() - 1);
 }
 
-/// Percent-encodes everything but RFC 3986 unreserved characters (a file name as a relative
-/// URI reference).
-std::string uri_encode(const std::string& name) {
-    static const char* const kHex = "0123456789ABCDEF";
-    std::string out;
-    for (unsigned char c : name) {
-        if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~') {
-            out += static_cast<char>(c);
-        } else {
-            out += '%';
-            out += kHex[c >> 4];
-            out += kHex[c & 15];
-        }
-    }
-    return out;
-}
-
 std::string serialise(const std::filesystem::path& path,
                       const tinygltf::Model& model,
                       bool binary) {
@@ -293,14 +259,6 @@ std::string serialise(const std::filesystem::path& path,
         fail(ErrorCode::Internal, path, "tinygltf: serialising the scene failed");
     }
     return std::move(out).str();
-}
-
-/// A unique name beside `path` for staging a file.
-std::filesystem::path staging_name(const std::filesystem::path& path) {
-    static std::atomic<unsigned> counter{0};
-    std::filesystem::path staged = path;
-    staged += ".staged." + std::to_string(::getpid()) + "." + std::to_string(counter++);
-    return staged;
 }
 
 /// `.gltf` + `.bin`: the JSON is staged first, so a failing `.bin` leaves both old files; the
@@ -346,11 +304,8 @@ void write_gltf_pair(const std::filesystem::path& path,
 void write_scene_gltf(const std::filesystem::path& path,
                       const std::vector<SceneObject>& objects,
                       const SceneInfo& info) {
+    detail::require_gltf_extension(path);
     const std::string ext = lowercase_extension(path);
-    if (ext != ".glb" && ext != ".gltf") {
-        fail(ErrorCode::Unsupported, path,
-             "unsupported extension '" + path.extension().string() + "', expected .glb or .gltf");
-    }
     if (objects.empty()) {
         fail(ErrorCode::InvalidInput, path, "no objects to write, expected at least one");
     }
@@ -377,7 +332,7 @@ void write_scene_gltf(const std::filesystem::path& path,
 
     tinygltf::Node root;
     root.name = "patient";
-    root.matrix = kPatientToGltf;
+    root.matrix.assign(detail::kPatientToGltf.begin(), detail::kPatientToGltf.end());
     model.nodes.push_back(std::move(root));
 
     BufferBuilder buffer(model);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -13,9 +14,12 @@
 #include "contours/contour_stats.h"
 #include "core/atomic_write.h"
 #include "core/error.h"
+#include "core/file_names.h"
 #include "core/report.h"
 #include "debug/draw_contours.h"
 #include "debug/draw_medial.h"
+#include "exporters/progressive_gltf.h"
+#include "exporters/read_progressive_gltf.h"
 #include "exporters/scene_gltf.h"
 #include "input/read_slice_stack.h"
 #include "input/write_nifti.h"
@@ -258,10 +262,10 @@ SliceStack load_stack(const std::string& input,
             return l;
         }();
         if (lower.ends_with(".glb") || lower.ends_with(".gltf")) {
-            throw Error(ErrorCode::Unsupported,
+            throw Error(ErrorCode::InvalidInput,
                         input +
-                            ": reading strata's progressive glTF is not supported yet; "
-                            "give the label stack it was built from");
+                            ": a glTF file is an output of strata, not a label stack; give the "
+                            "label stack (`strata info` and `strata extract` read glTF files)");
         }
         ReadOptions read;
         read.spacing_mm = spacing_mm;
@@ -294,6 +298,186 @@ SceneObject scene_object(const SliceStack& stack, std::uint16_t value) {
         object.srgb = {label->color[0] / 255.0, label->color[1] / 255.0, label->color[2] / 255.0};
     }
     return object;
+}
+
+/// True for a .glb / .gltf path (strata's progressive files as input).
+bool is_gltf_path(const std::string& input) {
+    const std::string ext = lowercase_extension(input);
+    return ext == ".glb" || ext == ".gltf";
+}
+
+/// sRGB encoding of a linear channel (IEC 61966-2-1), clamped to [0, 1].
+double linear_to_srgb(double c) {
+    c = std::clamp(c, 0.0, 1.0);
+    return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+}
+
+/// The end of `strata extract`: writes the cut objects (a glTF scene, or one mesh file with a
+/// label per triangle) and reports them (`objects`: one JSON entry per object).
+int write_extracted(const ExtractOptions& options,
+                    const std::vector<SceneObject>& scene,
+                    const Json& objects,
+                    const SceneInfo& info,
+                    double max_error_mm,
+                    const Report& report) {
+    TriMesh merged;
+    for (const SceneObject& object : scene) {
+        const std::uint32_t offset = static_cast<std::uint32_t>(merged.positions.size());
+        merged.positions.insert(merged.positions.end(), object.mesh.positions.begin(),
+                                object.mesh.positions.end());
+        for (const auto& t : object.mesh.triangles) {
+            merged.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+            merged.labels.push_back(object.label);
+        }
+    }
+    if (merged.triangles.empty()) {
+        throw Error(ErrorCode::InvalidInput, "extract: the input has no objects to extract");
+    }
+    if (is_gltf_path(options.output.string())) {
+        write_scene_gltf(options.output, scene, info);
+    } else {
+        write_mesh(merged, options.output);
+    }
+    const Json summary = {{"output", options.output.string()},
+                          {"max_error_mm", max_error_mm},
+                          {"objects", objects},
+                          {"warnings", warnings_json(report)}};
+    if (options.output_options.json) {
+        std::cout << summary.dump(2) << '\n';
+    } else if (!options.output_options.quiet) {
+        for (const Json& o : objects) {
+            char buf[256];
+            std::snprintf(
+                buf, sizeof(buf), "  %5lld  %-24s %8zu triangles (of %zu), error <= %.3g mm\n",
+                static_cast<long long>(o["label"].get<std::int64_t>()),
+                o["name"].get<std::string>().c_str(), o["triangles"].get<std::size_t>(),
+                o["full_resolution_triangles"].get<std::size_t>(), o["error_mm"].get<double>());
+            std::cout << buf;
+        }
+        std::cout << "wrote " << options.output.string() << '\n';
+    }
+    if (!options.output_options.quiet) {
+        print_warnings(std::cerr, report);
+    }
+    return 0;
+}
+
+/// `strata extract FILE.glb`: one cut of every object of a progressive file.
+int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
+    if (bound.in_pixels) {
+        throw Error(ErrorCode::InvalidInput,
+                    "--max-error " + options.max_error +
+                        ": a progressive file states its errors in millimetres; give the bound "
+                        "in mm (e.g. 0.5mm)");
+    }
+    const ProgressiveFile file = read_progressive_gltf(options.input);
+    const double max_error_m = bound.value / 1000.0;
+    std::vector<SceneObject> scene;
+    Json objects = Json::array();
+    Report report;
+    for (const ProgressiveFileObject& object : file.objects) {
+        const MultiresCut cut = select_cut_by_error(object.model, max_error_m);
+        SceneObject out;
+        out.name = object.name;
+        out.label = static_cast<std::uint16_t>(std::clamp<std::int64_t>(object.label, 0, 65535));
+        out.srgb = {linear_to_srgb(object.base_color[0]), linear_to_srgb(object.base_color[1]),
+                    linear_to_srgb(object.base_color[2])};
+        out.mesh = file_cut_to_patient(object, cut);
+        const MeshReport check = check_mesh(out.mesh);
+        std::size_t full = 0;
+        for (const MultiresCluster& c : object.model.clusters) {
+            full += c.level == 0 ? c.triangles.size() : 0;
+        }
+        objects.push_back({{"label", object.label},
+                           {"name", object.name},
+                           {"triangles", out.mesh.triangles.size()},
+                           {"full_resolution_triangles", full},
+                           {"error_mm", cut.error_px * 1000.0},
+                           {"closed_manifold", is_closed_manifold(check)}});
+        if (cut.error_px > max_error_m) {
+            report.warn("extract", object.name,
+                        "the full-resolution surface already has an error of " +
+                            std::to_string(cut.error_px * 1000.0) +
+                            " mm, more than the bound asked for");
+        }
+        scene.push_back(std::move(out));
+    }
+    SceneInfo info;
+    info.source = options.input;
+    info.generator = "strata 0.1.0";
+    return write_extracted(options, scene, objects, info, bound.value, report);
+}
+
+/// `strata info FILE.glb`: what a progressive file holds, per object and level.
+int info_of_file(const InfoOptions& options) {
+    const ProgressiveFile file = read_progressive_gltf(options.input);
+    Json objects = Json::array();
+    for (const ProgressiveFileObject& object : file.objects) {
+        Json levels = Json::array();
+        for (std::uint32_t level = 0; level < level_count(object.model); ++level) {
+            const MultiresCut cut = select_cut_at_level(object.model, level);
+            std::size_t triangles = 0;
+            for (const std::uint32_t c : cut.clusters) {
+                triangles += object.model.clusters[c].triangles.size();
+            }
+            levels.push_back({{"level", level},
+                              {"triangles", triangles},
+                              {"clusters", cut.clusters.size()},
+                              {"error_mm", cut.error_px * 1000.0},
+                              {"chunk_bytes",
+                               level < object.level_bytes.size() ? object.level_bytes[level] : 0}});
+        }
+        objects.push_back({{"name", object.name},
+                           {"label", object.label},
+                           {"vertices", object.model.positions.size()},
+                           {"groups", object.model.groups.size()},
+                           {"base_bytes", object.base_bytes},
+                           {"levels", levels}});
+    }
+    Json j = {{"file", options.input},
+              {"generator", file.generator},
+              {"total_bytes", file.total_bytes},
+              {"objects", objects}};
+    if (options.output.json) {
+        std::cout << j.dump(2) << '\n';
+        return 0;
+    }
+    if (options.output.quiet) {
+        return 0;
+    }
+    std::cout << options.input << ": progressive glTF, " << file.total_bytes << " bytes, "
+              << file.objects.size() << " object(s), generator '" << file.generator << "'\n";
+    for (const Json& o : objects) {
+        std::cout << "  " << o["name"].get<std::string>() << " (label " << o["label"] << "): base "
+                  << o["base_bytes"] << " bytes, " << o["groups"] << " splits\n";
+        std::cout << "    level  triangles  clusters  error mm  chunk bytes\n";
+        for (const Json& level : o["levels"]) {
+            char buf[160];
+            std::snprintf(buf, sizeof(buf), "    %5u  %9zu  %8zu  %8.3f  %11zu\n",
+                          level["level"].get<unsigned>(), level["triangles"].get<std::size_t>(),
+                          level["clusters"].get<std::size_t>(), level["error_mm"].get<double>(),
+                          level["chunk_bytes"].get<std::size_t>());
+            std::cout << buf;
+        }
+    }
+    return 0;
+}
+
+/// The frame of the pipeline's slice space in the patient frame (for the progressive writer).
+SliceFrame slice_frame(const SliceStack& stack, double slice_spacing_px) {
+    SliceFrame frame;
+    const Vec3 origin = slice_to_world(stack, slice_spacing_px, {0, 0, 0});
+    frame.origin = {origin.x, origin.y, origin.z};
+    const std::array<Vec3, 3> units{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+    for (int c = 0; c < 3; ++c) {
+        const Vec3 column = slice_to_world(stack, slice_spacing_px, units[c]) - origin;
+        for (int r = 0; r < 3; ++r) {
+            frame.linear[3 * r + c] = column[r];
+        }
+    }
+    frame.slice_spacing_px = slice_spacing_px;
+    frame.error_mm_per_px = error_mm_per_px(stack);
+    return frame;
 }
 
 }  // namespace
@@ -356,7 +540,9 @@ int run_build(const BuildOptions& options) {
         }
     }
 
-    // Surfaces: one mesh file per object, and the scene as a plain glTF.
+    // Surfaces: one mesh file per object, the progressive scene, and the full-resolution scene
+    // as a plain glTF.
+    const auto export_start = Clock::now();
     std::vector<SceneObject> scene;
     std::vector<Json> surface_json;
     std::vector<std::string> stems;
@@ -422,6 +608,42 @@ int run_build(const BuildOptions& options) {
         surface_json.push_back(j);
         scene.push_back(std::move(object));
     }
+    // The progressive scene: every object whose surface lies on a grid (all but those the
+    // quantize stage had to leave unsnapped, which the report names).
+    std::vector<ProgressiveObject> progressive;
+    for (std::size_t i = 0; i < result.models.size() && i < scene.size(); ++i) {
+        if (scene[i].mesh.triangles.empty()) {
+            continue;
+        }
+        if (!(result.models[i].grid_step > 0.0)) {
+            report.warn("export", scene[i].name,
+                        "left out of the progressive scene: its surface is not on a grid");
+            continue;
+        }
+        ProgressiveObject object;
+        object.name = scene[i].name;
+        object.label = scene[i].label;
+        object.srgb = scene[i].srgb;
+        object.volume_ml = surface_json[i]["volume_ml"].get<double>();
+        object.model = &result.models[i];
+        progressive.push_back(object);
+    }
+    const std::filesystem::path model_file = options.output_dir / ("model." + options.model_format);
+    ProgressiveStats model_stats;
+    if (!progressive.empty()) {
+        SceneInfo info;
+        info.source = stack.source;
+        const Vec3 spacing = stack.spacing_mm();
+        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
+        info.generator = "strata 0.1.0";
+        ProgressiveOptions export_options;
+        export_options.threads = options.threads;
+        model_stats = write_progressive_gltf(model_file, progressive,
+                                             slice_frame(stack, result.slice_spacing_px), info,
+                                             export_options);
+    }
+    const double export_seconds = seconds_since(export_start);
+
     const std::filesystem::path scene_file = options.output_dir / "scene.glb";
     const bool any_triangles = std::any_of(
         scene.begin(), scene.end(), [](const SceneObject& o) { return !o.mesh.triangles.empty(); });
@@ -491,11 +713,20 @@ int run_build(const BuildOptions& options) {
     if (any_triangles) {
         summary["scene"] = scene_file.string();
     }
+    if (!progressive.empty()) {
+        summary["model"] = {{"file", model_file.string()},
+                            {"objects", progressive.size()},
+                            {"total_bytes", model_stats.total_bytes},
+                            {"base_bytes", model_stats.base_bytes},
+                            {"chunk_bytes", model_stats.chunk_bytes},
+                            {"chunks", model_stats.chunks}};
+    }
     summary["output_dir"] = options.output_dir.string();
     Json timings = {{"input", input_seconds}};
     for (const StageTiming& t : result.timings) {
         timings[t.stage] = t.seconds;
     }
+    timings["export"] = export_seconds;
     summary["timings_s"] = timings;
     summary["warnings"] = warnings_json(report);
     const std::filesystem::path summary_file = options.output_dir / "summary.json";
@@ -540,6 +771,14 @@ int run_build(const BuildOptions& options) {
                 std::cout << '\n';
             }
         }
+        if (!progressive.empty()) {
+            char buf[256];
+            std::snprintf(buf, sizeof(buf),
+                          "model: %s (%zu bytes: base %zu, %zu refinement chunks %zu)\n",
+                          model_file.string().c_str(), model_stats.total_bytes,
+                          model_stats.base_bytes, model_stats.chunks, model_stats.chunk_bytes);
+            std::cout << buf;
+        }
         if (any_triangles) {
             std::cout << "scene: " << scene_file.string() << '\n';
         }
@@ -568,6 +807,9 @@ int run_extract(const ExtractOptions& options) {
                                                  ".obj, .stl, .glb or .gltf");
     }
     const ErrorBound bound = parse_error_bound(options.max_error);
+    if (is_gltf_path(options.input)) {
+        return extract_from_file(options, bound);
+    }
     const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
                                         options.color_table, options.labels, progress, report);
     ReconstructOptions reconstruct_options;
@@ -580,7 +822,6 @@ int run_extract(const ExtractOptions& options) {
     const double mm_per_px = error_mm_per_px(stack);
     const double max_error_px = bound.in_pixels ? bound.value : bound.value / mm_per_px;
     std::vector<SceneObject> scene;
-    TriMesh merged;
     Json objects = Json::array();
     for (std::size_t i = 0; i < result.surfaces.size(); ++i) {
         const MultiresMesh& model = result.models[i];
@@ -601,50 +842,14 @@ int run_extract(const ExtractOptions& options) {
                             std::to_string(cut.error_px * mm_per_px) +
                             " mm, more than the bound asked for");
         }
-        const std::uint32_t offset = static_cast<std::uint32_t>(merged.positions.size());
-        merged.positions.insert(merged.positions.end(), object.mesh.positions.begin(),
-                                object.mesh.positions.end());
-        for (const auto& t : object.mesh.triangles) {
-            merged.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-            merged.labels.push_back(object.label);
-        }
         scene.push_back(std::move(object));
     }
-    if (merged.triangles.empty()) {
-        throw Error(ErrorCode::InvalidInput, "extract: the input has no objects to extract");
-    }
-    if (to_gltf) {
-        SceneInfo info;
-        info.source = stack.source;
-        const Vec3 spacing = stack.spacing_mm();
-        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
-        info.generator = "strata 0.1.0";
-        write_scene_gltf(options.output, scene, info);
-    } else {
-        write_mesh(merged, options.output);
-    }
-    Json summary = {{"output", options.output.string()},
-                    {"max_error_mm", max_error_px * mm_per_px},
-                    {"objects", objects},
-                    {"warnings", warnings_json(report)}};
-    if (options.output_options.json) {
-        std::cout << summary.dump(2) << '\n';
-    } else if (!options.output_options.quiet) {
-        for (const Json& o : objects) {
-            char buf[256];
-            std::snprintf(
-                buf, sizeof(buf), "  %5u  %-24s %8zu triangles (of %zu), error <= %.3g mm\n",
-                unsigned(o["label"].get<int>()), o["name"].get<std::string>().c_str(),
-                o["triangles"].get<std::size_t>(),
-                o["full_resolution_triangles"].get<std::size_t>(), o["error_mm"].get<double>());
-            std::cout << buf;
-        }
-        std::cout << "wrote " << options.output.string() << '\n';
-    }
-    if (!options.output_options.quiet) {
-        print_warnings(std::cerr, report);
-    }
-    return 0;
+    SceneInfo info;
+    info.source = stack.source;
+    const Vec3 spacing = stack.spacing_mm();
+    info.spacing_mm = {spacing.x, spacing.y, spacing.z};
+    info.generator = "strata 0.1.0";
+    return write_extracted(options, scene, objects, info, max_error_px * mm_per_px, report);
 }
 
 int run_phantom(const PhantomCommandOptions& options) {
@@ -689,6 +894,9 @@ int run_phantom(const PhantomCommandOptions& options) {
 }
 
 int run_info(const InfoOptions& options) {
+    if (is_gltf_path(options.input)) {
+        return info_of_file(options);
+    }
     Report report;
     ReadOptions read;
     read.spacing_mm = options.spacing_mm;

@@ -76,6 +76,12 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"ply", "obj", "stl"}))
         ->capture_default_str();
     build_cmd
+        ->add_option("--model-format", build.model_format,
+                     "Format of the progressive scene OUTPUT/model.*: glb (one file) or gltf (JSON "
+                     "plus a buffer file per level, for streaming)")
+        ->check(CLI::IsMember({"glb", "gltf"}))
+        ->capture_default_str();
+    build_cmd
         ->add_option("--cluster-triangles", build.cluster_triangles,
                      "Target triangles per cluster of the multiresolution model")
         ->check(CLI::Range(std::size_t{16}, std::size_t{1} << 20))
@@ -100,9 +106,13 @@ int main(int argc, char** argv) {
 
     strata::cli::ExtractOptions extract;
     CLI::App* extract_cmd = app.add_subcommand(
-        "extract", "Reconstruct and write one resolution of every object, within an error bound");
-    extract_cmd->add_option("input", extract.input,
-                            "Label stack as for `build`; omitted: the built-in phantom");
+        "extract",
+        "Write one resolution of every object within an error bound, from a label stack "
+        "(reconstructed) or from a progressive .glb/.gltf written by strata build");
+    extract_cmd->add_option(
+        "input", extract.input,
+        "Label stack as for `build`, or a strata .glb/.gltf; omitted: the built-in "
+        "phantom");
     extract_cmd
         ->add_option("--phantom", extract.phantom, "Built-in phantom to use when no input is given")
         ->capture_default_str();
@@ -132,8 +142,10 @@ int main(int argc, char** argv) {
     add_output_flags(*extract_cmd, extract.output_options);
 
     strata::cli::InfoOptions info;
-    CLI::App* info_cmd = app.add_subcommand("info", "Describe an input stack");
-    info_cmd->add_option("input", info.input, "Input file or folder")->required();
+    CLI::App* info_cmd = app.add_subcommand(
+        "info", "Describe an input stack, or a progressive .glb/.gltf written by strata build");
+    info_cmd->add_option("input", info.input, "Input file or folder, or a strata .glb/.gltf")
+        ->required();
     add_spacing_flag(*info_cmd, info.spacing_mm);
     info_cmd->add_option("--color-table", info.color_table, "Colour table naming labels");
     add_output_flags(*info_cmd, info.output);

@@ -122,6 +122,13 @@ TEST(Cli, DefaultBuildUsesBuiltInPhantomAndWritesSummary) {
     }
     EXPECT_TRUE(fs::exists(out / "scene.glb"));
     EXPECT_EQ(written.at("scene").get<std::string>(), (out / "scene.glb").string());
+    // The progressive scene: every object, its size as reported.
+    const auto& model = written.at("model");
+    EXPECT_EQ(model.at("file").get<std::string>(), (out / "model.glb").string());
+    EXPECT_EQ(model.at("objects"), written.at("objects").size());
+    EXPECT_EQ(model.at("total_bytes").get<std::uintmax_t>(), fs::file_size(out / "model.glb"));
+    EXPECT_GT(model.at("chunks").get<int>(), 0);
+    EXPECT_LT(model.at("base_bytes").get<double>(), model.at("total_bytes").get<double>());
     // The multiresolution ladder: level 0 is the full surface; coarser levels have fewer
     // triangles and no smaller error.
     for (const auto& object : written.at("objects")) {
@@ -189,6 +196,67 @@ TEST(Cli, ExtractRejectsBadBoundsAndOutputs) {
     EXPECT_NE(extension.err.find("expected .ply, .obj, .stl, .glb or .gltf"), std::string::npos)
         << extension.err;
     EXPECT_FALSE(fs::exists(out / "a.ply"));
+}
+
+// `strata build` writes the progressive model; `info` describes it and `extract` cuts it, with
+// the same triangles and bounds as the extraction from the label stack (the file holds the
+// model exactly, its errors in mm).
+TEST(Cli, InfoAndExtractReadTheProgressiveModel) {
+    const fs::path out = test::fresh_temp_dir("cli_progressive");
+    const CliRun build = run_cli(
+        {"build", "--phantom", "torus", "-o", out.string(), "--quiet", "--model-format", "gltf"});
+    ASSERT_EQ(build.exit_code, 0) << build.err;
+    const fs::path model = out / "model.gltf";
+    ASSERT_TRUE(fs::exists(model));
+    ASSERT_TRUE(fs::exists(out / "model.bin"));
+    const nlohmann::json summary = nlohmann::json::parse(slurp(out / "summary.json"));
+    const CliRun info = run_cli({"info", model.string(), "--json"});
+    ASSERT_EQ(info.exit_code, 0) << info.err;
+    const nlohmann::json described = nlohmann::json::parse(info.out);
+    ASSERT_EQ(described.at("objects").size(), 1u);
+    const auto& levels = described.at("objects").at(0).at("levels");
+    const auto& built = summary.at("objects").at(0).at("surface").at("levels");
+    ASSERT_EQ(levels.size(), built.size());
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+        EXPECT_EQ(levels[l].at("triangles"), built[l].at("triangles")) << l;
+        EXPECT_NEAR(levels[l].at("error_mm").get<double>(), built[l].at("error_mm").get<double>(),
+                    1e-9)
+            << l;
+    }
+    EXPECT_EQ(described.at("total_bytes"), summary.at("model").at("total_bytes"));
+
+    const double bound_mm = built.back().at("error_mm").get<double>() * 0.6;
+    const std::string bound = std::to_string(bound_mm) + "mm";
+    const CliRun from_file = run_cli({"extract", model.string(), "--max-error", bound, "-o",
+                                      (out / "file.ply").string(), "--json"});
+    ASSERT_EQ(from_file.exit_code, 0) << from_file.err;
+    const CliRun from_stack = run_cli({"extract", "--phantom", "torus", "--max-error", bound, "-o",
+                                       (out / "stack.ply").string(), "--json"});
+    ASSERT_EQ(from_stack.exit_code, 0) << from_stack.err;
+    const auto f = nlohmann::json::parse(from_file.out).at("objects").at(0);
+    const auto s = nlohmann::json::parse(from_stack.out).at("objects").at(0);
+    EXPECT_EQ(f.at("triangles"), s.at("triangles"));
+    EXPECT_LE(f.at("error_mm").get<double>(), bound_mm);
+    EXPECT_NEAR(f.at("error_mm").get<double>(), s.at("error_mm").get<double>(), 1e-9);
+    const TriMesh mesh = read_mesh(out / "file.ply");
+    EXPECT_EQ(mesh.triangles.size(), f.at("triangles").get<std::size_t>());
+    const MeshReport report = check_mesh(mesh);
+    EXPECT_TRUE(is_closed_manifold(report));
+    EXPECT_EQ(component_genera(report), std::vector<int>{1});
+    EXPECT_GT(report.signed_volume, 0.0);
+
+    // pixel bounds need the stack; broken files are bad input with the place named
+    const CliRun px =
+        run_cli({"extract", model.string(), "--max-error", "1px", "-o", (out / "px.ply").string()});
+    EXPECT_EQ(px.exit_code, 2);
+    EXPECT_NE(px.err.find("give the bound in mm"), std::string::npos) << px.err;
+    { std::ofstream(out / "broken.glb", std::ios::binary) << "glTF\x02\0\0\0"; }
+    const CliRun broken = run_cli({"info", (out / "broken.glb").string()});
+    EXPECT_EQ(broken.exit_code, 2);
+    EXPECT_NE(broken.err.find("broken.glb"), std::string::npos) << broken.err;
+    const CliRun as_stack = run_cli({"build", model.string(), "-o", (out / "again").string()});
+    EXPECT_EQ(as_stack.exit_code, 2);
+    EXPECT_NE(as_stack.err.find("not a label stack"), std::string::npos) << as_stack.err;
 }
 
 TEST(Cli, PhantomPngAndNiftiReadBackWithSameDims) {

@@ -1,5 +1,7 @@
 #include "support/test_paths.h"
 
+#include <fstream>
+#include <iterator>
 #include <unistd.h>
 
 namespace strata::test {
@@ -18,6 +20,11 @@ std::filesystem::path fresh_temp_dir(const std::string& name) {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     return dir;
+}
+
+std::string read_file(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 }  // namespace strata::test

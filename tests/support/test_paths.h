@@ -15,4 +15,7 @@ std::filesystem::path cli_path();
 /// or left for inspection.
 std::filesystem::path fresh_temp_dir(const std::string& name);
 
+/// The bytes of a file (empty when it cannot be read).
+std::string read_file(const std::filesystem::path& path);
+
 }  // namespace strata::test
