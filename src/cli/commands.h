@@ -27,7 +27,7 @@ struct BuildOptions {
     double tolerance_px = 0.5;             ///< contour simplification tolerance, pixels
     unsigned threads = 0;                  ///< worker threads, 0 = all cores
     std::string mesh_format = "ply";       ///< per-object mesh files: ply, obj or stl
-    std::size_t cluster_triangles = 1024;  ///< target triangles per multiresolution cluster
+    std::size_t cluster_triangles = 2048;  ///< target triangles per multiresolution cluster
     /// The progressive scene OUTPUT/model.<format>: "glb" (one file) or "gltf" (JSON, base
     /// buffer and one buffer file per level, for HTTP range requests).
     std::string model_format = "glb";
