@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs what strata needs on a Debian 12 machine: build tools and libraries from apt.
 # Idempotent: packages already installed are skipped; a failure names the package.
+#   bash scripts/install-deps.sh [--tests]
+#     --tests  also what only the test suite needs: Debian's chromium (the viewer's browser tests)
 set -euo pipefail
 
 apt_packages=(
@@ -14,6 +16,9 @@ apt_packages=(
     clang-format-14                                          # formatting check
     nodejs npm                                               # glTF validator (tests/node)
 )
+if [ "${1:-}" = "--tests" ]; then
+    apt_packages+=(chromium)                                 # web-viewer browser tests
+fi
 
 missing=()
 for p in "${apt_packages[@]}"; do

@@ -4,13 +4,19 @@
 #   bash scripts/test.sh --sanitize   AddressSanitizer + UndefinedBehaviorSanitizer in ./build-asan
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/install-deps.sh
+bash scripts/install-deps.sh --tests
 # npm packages of the node tests (the Khronos glTF validator), exactly as locked; npm ci writes
 # node_modules/.package-lock.json, so reinstall when it is missing or older than the lock file.
 if [ ! -f tests/node/node_modules/.package-lock.json ] ||
     [ tests/node/package-lock.json -nt tests/node/node_modules/.package-lock.json ]; then
     echo "test: npm ci in tests/node"
     (cd tests/node && npm ci --no-audit --no-fund)
+fi
+# the web viewer's npm packages (three.js, draco3d, playwright-core), likewise
+if [ ! -f web-viewer/node_modules/.package-lock.json ] ||
+    [ web-viewer/package-lock.json -nt web-viewer/node_modules/.package-lock.json ]; then
+    echo "test: npm ci in web-viewer"
+    (cd web-viewer && npm ci --no-audit --no-fund)
 fi
 jobs=$(nproc)
 if [ "${1:-}" = "--sanitize" ]; then

@@ -1,0 +1,221 @@
+#!/usr/bin/env node
+// Benchmark (not a test): bytes and time to the first frame, and frame times while refining, of
+// strata's progressive model against the same surfaces as one single-rate Draco .glb, in the same
+// page (index.html) in headless Chromium (Debian's chromium, software WebGL).
+//
+//   node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N]
+//        [--viewport WxH] [--json FILE]
+//
+// OUT: a folder written by `strata build` (OUT/model.glb, the progressive model, and OUT/scene.glb,
+// the full-resolution plain glTF). --gltf: a folder written with `--model-format gltf` from the
+// same input (its model.gltf is measured too, streaming by Range requests of the level files).
+// The single-rate Draco .glb is made here from OUT/scene.glb with glTF-Transform's draco()
+// (Edgebreaker, its default quantization: 14-bit positions, 10-bit normals).
+// Each variant runs in a fresh browser profile (no cache), on the same viewport and camera (the
+// viewer's fitted anterior view), tau 1 px, the default triangle budget:
+//   first frame   ms from navigation to the first frame that shows the model; model bytes then
+//   refined       ms until nothing is loading or queued (progressive) ; model bytes then
+//   frames        frame times (rAF deltas) from the first frame to the refined state: median,
+//                 95th percentile, max
+//   zoom          the camera dollied to 40 % of the distance: ms until refined, bytes, frame times
+// --throttle 20,40 emulates a 20 Mbit/s link with 40 ms round trips (Chrome DevTools protocol),
+// since on the loopback bytes cost almost nothing.
+import { existsSync, mkdtempSync, readdirSync, rmSync, statSync, symlinkSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join, resolve } from 'node:path';
+import { startServer } from '../serve.mjs';
+import { chromiumMissing, launchChromium } from '../chromium.mjs';
+
+function usage(message) {
+    if (message) console.error(`first-frame: ${message}`);
+    console.error('usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE]');
+    process.exit(2);
+}
+
+function parseArgs(args) {
+    const options = { out: null, gltf: null, throttle: null, runs: 1, viewport: { width: 960, height: 640 }, json: null };
+    for (let i = 0; i < args.length; ++i) {
+        const arg = args[i];
+        if (arg === '--gltf') options.gltf = args[++i];
+        else if (arg === '--throttle') {
+            const [mbit, rtt] = (args[++i] ?? '').split(',').map(Number);
+            if (!(mbit > 0) || !(rtt >= 0)) usage('--throttle MBIT,RTT_MS');
+            options.throttle = { mbit, rtt };
+        } else if (arg === '--runs') options.runs = Number(args[++i]);
+        else if (arg === '--viewport') {
+            const [width, height] = (args[++i] ?? '').split('x').map(Number);
+            options.viewport = { width, height };
+        } else if (arg === '--json') options.json = args[++i];
+        else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
+        else if (options.out === null) options.out = arg;
+        else usage('one OUT folder');
+    }
+    if (options.out === null) usage('no OUT folder');
+    for (const f of ['model.glb', 'scene.glb']) {
+        if (!existsSync(join(options.out, f))) usage(`${join(options.out, f)} not found`);
+    }
+    if (options.gltf && !existsSync(join(options.gltf, 'model.gltf'))) usage(`${join(options.gltf, 'model.gltf')} not found`);
+    return options;
+}
+
+/// OUT/scene.glb -> single-rate Draco .glb (glTF-Transform draco(), Edgebreaker).
+async function makeDracoGlb(sceneGlb, target) {
+    const { NodeIO } = await import('@gltf-transform/core');
+    const { KHRONOS_EXTENSIONS } = await import('@gltf-transform/extensions');
+    const { draco } = await import('@gltf-transform/functions');
+    const draco3d = (await import('draco3d')).default;
+    const io = new NodeIO().registerExtensions(KHRONOS_EXTENSIONS).registerDependencies({
+        'draco3d.decoder': await draco3d.createDecoderModule(),
+        'draco3d.encoder': await draco3d.createEncoderModule(),
+    });
+    const document = await io.read(sceneGlb);
+    await document.transform(draco({ method: 'edgebreaker' }));
+    await io.write(target, document);
+    let triangles = 0;
+    for (const mesh of document.getRoot().listMeshes()) {
+        for (const p of mesh.listPrimitives()) triangles += (p.getIndices()?.getCount() ?? p.getAttribute('POSITION').getCount()) / 3;
+    }
+    return triangles;
+}
+
+function quantiles(values) {
+    if (values.length === 0) return { n: 0, median: null, p95: null, max: null };
+    const sorted = [...values].sort((a, b) => a - b);
+    const at = (q) => sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
+    return { n: values.length, median: at(0.5), p95: at(0.95), max: sorted[sorted.length - 1] };
+}
+
+async function measure(url, options, label) {
+    const browser = await launchChromium({ viewport: options.viewport });
+    const errors = [];
+    try {
+        const page = await browser.context.newPage();
+        page.on('pageerror', (e) => errors.push(e.message));
+        page.on('console', (m) => m.type() === 'error' && errors.push(m.text()));
+        if (options.throttle) {
+            const cdp = await browser.context.newCDPSession(page);
+            await cdp.send('Network.enable');
+            await cdp.send('Network.emulateNetworkConditions', {
+                offline: false, latency: options.throttle.rtt,
+                downloadThroughput: options.throttle.mbit * 1e6 / 8, uploadThroughput: options.throttle.mbit * 1e6 / 8,
+            });
+        }
+        await page.goto(url);
+        const ok = await page.evaluate(() => window.strataViewer.ready);
+        if (!ok) throw new Error(`${label}: the page did not load the model: ${errors.join('; ')}`);
+        await page.evaluate(() => window.strataViewer.idle(600000, 3));
+        const first = await page.evaluate(() => {
+            const v = window.strataViewer;
+            const t = v.timing;
+            const frames = v.frameTimes.slice();
+            return {
+                state: v.state(), firstFrameMs: t.firstFrame, refinedMs: t.refined,
+                firstBytes: v.modelBytes(t.firstFrame), refinedBytes: v.modelBytes(t.refined),
+                frameTimes: frames,
+            };
+        });
+        // frames from the first frame to the refined state: the last frames recorded (rAF deltas),
+        // count them by summing back from the end up to (refined - firstFrame) ms
+        const span = first.refinedMs - first.firstFrameMs;
+        const refining = [];
+        let sum = 0;
+        for (let i = first.frameTimes.length - 1; i >= 0 && sum < span; --i) {
+            refining.unshift(first.frameTimes[i]);
+            sum += first.frameTimes[i];
+        }
+        // zoom in
+        const zoom = await page.evaluate(async () => {
+            const v = window.strataViewer;
+            const before = v.modelBytes();
+            const start = performance.now();
+            v.frameTimes.length = 0;
+            v.dolly(0.4);
+            await v.idle(600000, 3);
+            const end = performance.now();
+            const after = v.modelBytes();
+            return { ms: end - start, bytes: after.bytes - before.bytes, requests: after.requests - before.requests,
+                     frameTimes: v.frameTimes.slice(), state: v.state() };
+        });
+        return {
+            label,
+            triangles: first.state.triangles,
+            firstFrameMs: first.firstFrameMs, firstFrameBytes: first.firstBytes.bytes, firstFrameRequests: first.firstBytes.requests,
+            refinedMs: first.refinedMs, refinedBytes: first.refinedBytes.bytes, refinedRequests: first.refinedBytes.requests,
+            refiningFrames: quantiles(refining),
+            maxErrorPx: first.state.maxErrorPx, maxErrorMm: first.state.maxErrorMm,
+            zoom: { ms: zoom.ms, bytes: zoom.bytes, requests: zoom.requests, triangles: zoom.state.triangles,
+                    frames: quantiles(zoom.frameTimes.slice(1)) },
+            totalBytes: first.state.bytesTotal,
+            errors,
+        };
+    } finally {
+        await browser.close();
+    }
+}
+
+function fmtMs(x) {
+    return x === null || x === undefined ? '-' : `${Math.round(x)}`;
+}
+
+function fmtMB(x) {
+    return `${(x / 1e6).toFixed(2)}`;
+}
+
+async function main() {
+    const options = parseArgs(process.argv.slice(2));
+    const missing = chromiumMissing();
+    if (missing) usage(missing);
+    const dir = mkdtempSync(join(tmpdir(), 'strata-bench-'));
+    try {
+        // one folder with every variant (the server serves the model's folder)
+        const link = (source, name) => symlinkSync(resolve(source), join(dir, name));
+        link(join(options.out, 'model.glb'), 'model.glb');
+        const variants = [{ label: 'progressive .glb (ranges)', file: 'model.glb' }];
+        if (options.gltf) {
+            for (const f of readdirSync(options.gltf)) {
+                if (/^model\.(gltf|.*bin)$/.test(f)) link(join(options.gltf, f), f);
+            }
+            variants.push({ label: 'progressive .gltf (ranges)', file: 'model.gltf' });
+        }
+        console.error('first-frame: making the single-rate Draco .glb with glTF-Transform ...');
+        const t0 = performance.now();
+        const dracoTriangles = await makeDracoGlb(join(options.out, 'scene.glb'), join(dir, 'single-draco.glb'));
+        console.error(`first-frame: single-draco.glb ${statSync(join(dir, 'single-draco.glb')).size} bytes, ` +
+            `${dracoTriangles} triangles (${Math.round(performance.now() - t0)} ms)`);
+        variants.push({ label: 'single-rate Draco .glb', file: 'single-draco.glb' });
+        const server = await startServer({ model: join(dir, 'model.glb'), port: 0 });
+        const base = server.url.replace(/\?.*$/, '');
+        const results = [];
+        try {
+            for (let run = 0; run < options.runs; ++run) {
+                for (const variant of variants) {
+                    const url = `${base}?model=model/${encodeURIComponent(variant.file)}&tau=1&aa=0`;
+                    console.error(`first-frame: ${variant.label} run ${run + 1} ...`);
+                    const r = await measure(url, options, variant.label);
+                    r.fileBytes = statSync(join(dir, variant.file)).size;
+                    results.push(r);
+                }
+            }
+        } finally {
+            await server.close();
+        }
+        const net = options.throttle ? `${options.throttle.mbit} Mbit/s, ${options.throttle.rtt} ms RTT (emulated)` : 'loopback, unthrottled';
+        console.log(`model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
+            `tau 1 px; Chromium software WebGL (SwiftShader)`);
+        console.log('variant                      | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | frame ms med/p95/max (refining) | zoom: ms, MB, tris, frame ms med/p95/max');
+        for (const r of results) {
+            const f = r.refiningFrames;
+            const z = r.zoom;
+            console.log(`${r.label.padEnd(28)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
+                `${fmtMB(r.firstFrameBytes).padStart(9)} | ${String(r.triangles).padStart(12)} | ${fmtMs(r.refinedMs).padStart(10)} | ` +
+                `${fmtMB(r.refinedBytes).padStart(10)} | ${fmtMs(f.median)}/${fmtMs(f.p95)}/${fmtMs(f.max)} (${f.n} frames) | ` +
+                `${fmtMs(z.ms)}, ${fmtMB(z.bytes)}, ${z.triangles}, ${fmtMs(z.frames.median)}/${fmtMs(z.frames.p95)}/${fmtMs(z.frames.max)} (${z.frames.n} frames)` +
+                (r.errors.length ? `  ERRORS: ${r.errors.slice(0, 2).join('; ')}` : ''));
+        }
+        if (options.json) writeFileSync(options.json, JSON.stringify({ options, results }, null, 2));
+    } finally {
+        rmSync(dir, { recursive: true, force: true });
+    }
+}
+
+await main();

@@ -1,0 +1,419 @@
+// node --test web-viewer/test/
+// The selection logic (selection.js) on real DAGs written by `strata build`: the model file is
+// given by the environment variable STRATA_VIEWER_MODEL (a .glb; a .gltf with its buffer files
+// works too). Without it the tests are skipped with a message.
+//
+// For many random cameras, thresholds, budgets, regions of interest and loaded-chunk sets:
+//   * the refined set is closed upward; the drawn clusters are the stateless rule's;
+//   * coverage: no cluster is drawn with an ancestor (or descendant), and every level-0 cluster
+//     has an ancestor-or-self drawn;
+//   * only loaded clusters are drawn; the budget holds; the triangle count adds up;
+//   * with everything loaded and no budget, the cut is exactly the spec's two passes
+//     (schema/README.md) for the predicate sse * factor / tau > 1 in the frustum;
+//   * monotone: a larger tau refines a subset of the groups and draws no more triangles; a larger
+//     budget refines a superset; a region of interest refines a superset;
+//   * geometry: for some cuts, the drawn clusters' triangles (decoded with draco3d, positions
+//     compared bit-exactly) form a closed, consistently oriented surface: every directed edge
+//     once, its reverse once.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import { readFileSync } from 'node:fs';
+import { dirname, resolve } from 'node:path';
+import {
+    buildDag, clusterTriangleCounts, cutForPredicate, drawnClusters, groupScreenSpaceError,
+    isClosedUpward, selectCut, sphereInFrustum, sphereMeetsRoi, cutStats,
+} from '../selection.js';
+import { parseGlb, progressiveNodes } from '../gltf-file.js';
+
+const kModel = process.env.STRATA_VIEWER_MODEL;
+const kSkip = kModel ? false
+    : 'STRATA_VIEWER_MODEL is not set: give it a .glb written by `strata build` (CTest sets it from the build_scene fixture)';
+const kTrials = Number(process.env.STRATA_VIEWER_TRIALS ?? 300);
+
+// ------------------------------------------------------------------------------------------------
+// the model
+
+function readModel(file) {
+    const bytes = new Uint8Array(readFileSync(file));
+    let json;
+    const buffers = [];
+    if (file.endsWith('.glb')) {
+        const glb = parseGlb(bytes);
+        json = glb.json;
+        buffers.push(glb.bin);
+    } else {
+        json = JSON.parse(new TextDecoder().decode(bytes));
+    }
+    (json.buffers ?? []).forEach((b, i) => {
+        if (b.uri !== undefined) buffers[i] = new Uint8Array(readFileSync(resolve(dirname(file), decodeURIComponent(b.uri))));
+    });
+    const objects = progressiveNodes(json).map(({ nodeIndex, node, ext }) => ({
+        nodeIndex, name: node.name, ext, dag: buildDag(ext, { clusterTriangles: clusterTriangleCounts(ext, json) }),
+    }));
+    return { json, buffers, objects };
+}
+
+let model = null;
+function getModel() {
+    model ??= readModel(kModel);
+    return model;
+}
+
+// A deterministic random generator (mulberry32), so failures reproduce.
+function random(seed) {
+    let a = seed >>> 0;
+    return () => {
+        a = (a + 0x6d2b79f5) >>> 0;
+        let t = a;
+        t = Math.imul(t ^ (t >>> 15), t | 1);
+        t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
+        return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
+    };
+}
+
+/// The scene's bounding sphere (of the root groups' spheres).
+function sceneSphere(objects) {
+    const spheres = objects.flatMap(({ dag }) => dag.roots.map((c) => [...dag.clusterSphere.subarray(4 * c, 4 * c + 4)]));
+    const centre = [0, 1, 2].map((k) => spheres.reduce((s, sp) => s + sp[k], 0) / spheres.length);
+    const radius = Math.max(...spheres.map((sp) => Math.hypot(sp[0] - centre[0], sp[1] - centre[1], sp[2] - centre[2]) + sp[3]));
+    return { centre, radius };
+}
+
+/// A random perspective view around the scene, sometimes inside it, with its frustum planes.
+function randomView(rnd, scene) {
+    const dir = normalize([rnd() * 2 - 1, rnd() * 2 - 1, rnd() * 2 - 1]);
+    const distance = scene.radius * (rnd() < 0.15 ? rnd() * 0.8 : 0.8 + rnd() * 15);
+    const position = scene.centre.map((c, k) => c + dir[k] * distance);
+    // look at a random point near the centre
+    const target = scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius);
+    const fovy = (15 + rnd() * 75) * Math.PI / 180;
+    const heightPx = Math.round(200 + rnd() * 1800);
+    const aspect = 0.5 + rnd() * 1.5;
+    return { position, fovy, heightPx, frustum: frustumPlanes(position, target, fovy, aspect, scene.radius * 1e-3, scene.radius * 100) };
+}
+
+function normalize(v) {
+    const n = Math.hypot(...v) || 1;
+    return v.map((x) => x / n);
+}
+
+function cross(a, b) {
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+}
+
+function dot(a, b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/// Six inward planes [n, d] of a perspective frustum.
+function frustumPlanes(eye, target, fovy, aspect, near, far) {
+    const f = normalize(target.map((t, k) => t - eye[k]));
+    let up = Math.abs(f[1]) < 0.99 ? [0, 1, 0] : [1, 0, 0];
+    const r = normalize(cross(f, up));
+    up = cross(r, f);
+    const ty = Math.tan(fovy / 2);
+    const tx = ty * aspect;
+    const plane = (n, p) => [...n, -dot(n, p)];
+    const planes = [
+        plane(f, eye.map((e, k) => e + f[k] * near)),
+        plane(f.map((x) => -x), eye.map((e, k) => e + f[k] * far)),
+    ];
+    // side planes through the eye: normals from the frustum edges
+    for (const [axis, t, other] of [[r, tx, up], [up, ty, r]]) {
+        for (const s of [1, -1]) {
+            const edge = normalize(f.map((x, k) => x + s * t * axis[k]));
+            let n = normalize(cross(edge, other));
+            if (dot(n, f) < 0) n = n.map((x) => -x);
+            planes.push(plane(n, eye));
+        }
+    }
+    return planes;
+}
+
+// ------------------------------------------------------------------------------------------------
+// checks
+
+/// No drawn cluster has a drawn ancestor (a cluster produced by its consumer, or by the consumer
+/// of such a cluster, ...), and every level-0 cluster has at least one ancestor-or-self drawn.
+/// (Not "exactly one": a group that produces several clusters replaces all its consumed clusters
+/// by all its produced ones together, so a level-0 cluster has several ancestors at one level;
+/// the decoded-geometry test below checks that the pieces fit exactly.) Returns a problem or null.
+function coverageProblem(dag, drawn) {
+    const isDrawn = new Uint8Array(dag.nc);
+    for (const c of drawn) isDrawn[c] = 1;
+    const ancestorsOf = (c) => {
+        const out = new Set();
+        const stack = [c];
+        while (stack.length > 0) {
+            const g = dag.consumer[stack.pop()];
+            if (g < 0) continue;
+            for (const a of dag.groups[g].produced) {
+                if (!out.has(a)) {
+                    out.add(a);
+                    stack.push(a);
+                }
+            }
+        }
+        return out;
+    };
+    for (const c of drawn) {
+        for (const a of ancestorsOf(c)) {
+            if (isDrawn[a]) return `cluster ${c} is drawn with its ancestor ${a}`;
+        }
+    }
+    for (let c = 0; c < dag.nc; ++c) {
+        if (dag.producer[c] < 0 && !isDrawn[c] && ![...ancestorsOf(c)].some((a) => isDrawn[a])) {
+            return `level-0 cluster ${c} has no ancestor-or-self drawn (a hole)`;
+        }
+    }
+    return null;
+}
+
+function subset(a, b) {
+    return a.every((x, i) => !x || b[i]);
+}
+
+// ------------------------------------------------------------------------------------------------
+
+test('the model has objects with STRATA_progressive_mesh', { skip: kSkip }, () => {
+    const { objects } = getModel();
+    assert.ok(objects.length > 0, `no node with the extension in ${kModel}`);
+    assert.ok(objects.some(({ dag }) => dag.ng > 0), 'no object has refinement groups');
+    for (const { name, dag } of objects) {
+        // a surface of a single cluster has no groups (schema/README.md)
+        assert.ok(dag.ng === 0 ? dag.nc === 1 : dag.totalTriangles > dag.baseTriangles, `${name}: ${dag.nc} clusters, ${dag.ng} groups`);
+        assert.deepEqual(drawnClusters(dag, new Uint8Array(dag.ng)), dag.roots, `${name}: nothing refined must draw the roots`);
+        const all = drawnClusters(dag, new Uint8Array(dag.ng).fill(1));
+        assert.ok(all.every((c) => dag.producer[c] < 0), `${name}: everything refined must draw level 0`);
+    }
+    console.log(`${kModel}: ${objects.map((o) => `${o.name} ${o.dag.nc} clusters/${o.dag.ng} groups`).join(', ')}`);
+});
+
+test('level cuts and uniform-error cuts are valid cuts', { skip: kSkip }, () => {
+    const { objects } = getModel();
+    for (const { name, dag } of objects) {
+        const levels = Math.max(...dag.groups.map((g) => g.level));
+        for (let level = 0; level <= levels; ++level) {
+            const { refined, drawn } = cutForPredicate(dag, (g) => dag.groups[g].level > level);
+            assert.ok(isClosedUpward(dag, refined), `${name} level ${level}: not closed upward`);
+            assert.equal(coverageProblem(dag, drawn), null, `${name} level ${level}`);
+        }
+        for (const g of dag.groups) {
+            const tau = g.error * 0.999;
+            const { refined, drawn } = cutForPredicate(dag, (h) => dag.error[h] > tau);
+            assert.ok(isClosedUpward(dag, refined));
+            assert.equal(coverageProblem(dag, drawn), null, `${name} uniform error ${tau}`);
+            assert.ok(cutStats(dag, drawn).maxError <= Math.max(tau, dag.fullResolutionError), `${name}: bound above tau`);
+        }
+    }
+});
+
+test('random views, taus, budgets, regions and loaded sets: valid, exact, monotone cuts', { skip: kSkip }, () => {
+    const { objects } = getModel();
+    const dags = objects.map((o) => o.dag);
+    const scene = sceneSphere(objects);
+    const rnd = random(12345);
+    const base = dags.reduce((s, d) => s + d.baseTriangles, 0);
+    const total = dags.reduce((s, d) => s + d.totalTriangles, 0);
+    let refinedSomething = 0;
+    let budgetLimited = 0;
+    let partial = 0;
+    for (let trial = 0; trial < kTrials; ++trial) {
+        const view = randomView(rnd, scene);
+        const cull = rnd() < 0.7;
+        const roi = rnd() < 0.4 ? { center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius),
+                                    radius: scene.radius * rnd() * 0.3, factor: 1 + rnd() * 8 } : null;
+        // a random loaded set (roots always loaded), or everything
+        let loaded = null;
+        if (rnd() < 0.4) {
+            const p = rnd();
+            loaded = dags.map((d) => Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < p ? 1 : 0)));
+        }
+        const isLoaded = loaded === null ? null : (di, c) => loaded[di][c] === 1;
+        const budget = rnd() < 0.5 ? Infinity : base + rnd() * (total - base) * 0.5;
+        const taus = Array.from({ length: 4 }, () => Math.exp(Math.log(0.25) + rnd() * Math.log(200))).sort((a, b) => a - b);
+        let previous = null;
+        for (const tauPx of taus) {
+            const options = { tauPx, budget, roi, cull, isLoaded };
+            const result = selectCut(dags, view, options);
+            const where = `trial ${trial} tau ${tauPx.toFixed(3)} budget ${budget} roi ${!!roi} cull ${cull} loaded ${!!loaded}`;
+            let triangles = 0;
+            result.cuts.forEach((cut, di) => {
+                const dag = dags[di];
+                assert.ok(isClosedUpward(dag, cut.refined), `${where}: ${objects[di].name} not closed upward`);
+                assert.deepEqual(cut.drawn, drawnClusters(dag, cut.refined));
+                assert.equal(coverageProblem(dag, cut.drawn), null, `${where}: ${objects[di].name}`);
+                if (loaded !== null) {
+                    for (const c of cut.drawn) assert.ok(loaded[di][c], `${where}: cluster ${c} drawn but not loaded`);
+                }
+                for (const g of cut.refined.keys()) {
+                    if (cut.refined[g]) {
+                        assert.ok(cut.weight[g] >= 0 && cut.weight[g] <= 1);
+                    }
+                }
+                triangles += cutStats(dag, cut.drawn).triangles;
+                // against the spec's passes, when nothing limits the cut
+                if (budget === Infinity) {
+                    const factor = (g) => (roi && roi.factor > 1 && sphereMeetsRoi(dag.sphere, 4 * g, roi) ? roi.factor : 1);
+                    const frustum = cull ? view.frustum : null;
+                    const spec = cutForPredicate(dag,
+                        (g) => sphereInFrustum(dag.sphere, 4 * g, frustum) && groupScreenSpaceError(dag, g, view) * factor(g) / tauPx > 1,
+                        loaded === null ? null : (c) => loaded[di][c] === 1);
+                    assert.deepEqual(cut.refined, spec.refined, `${where}: ${objects[di].name} differs from the spec's passes`);
+                }
+                if (cut.refined.some((x) => x)) ++refinedSomething;
+            });
+            assert.equal(result.triangles, triangles, `${where}: triangle count`);
+            assert.ok(triangles <= Math.max(budget, base), `${where}: ${triangles} triangles over the budget ${budget}`);
+            if (result.budgetLimited) ++budgetLimited;
+            if (result.wanted.length > 0) ++partial;
+            if (previous !== null) {
+                result.cuts.forEach((cut, di) => {
+                    assert.ok(subset(cut.refined, previous.cuts[di].refined),
+                        `${where}: a larger tau refined a group a smaller one did not (${objects[di].name})`);
+                });
+                assert.ok(result.triangles <= previous.triangles, `${where}: a larger tau draws more triangles`);
+            }
+            previous = result;
+        }
+        // monotone in the budget and in the region of interest (tau fixed)
+        const tauPx = taus[0];
+        const small = selectCut(dags, view, { tauPx, budget: base + (total - base) * 0.05, roi, cull, isLoaded });
+        const large = selectCut(dags, view, { tauPx, budget: base + (total - base) * 0.3, roi, cull, isLoaded });
+        small.cuts.forEach((cut, di) => assert.ok(subset(cut.refined, large.cuts[di].refined), `trial ${trial}: budget not monotone`));
+        if (roi !== null) {
+            const without = selectCut(dags, view, { tauPx, cull, isLoaded });
+            const withRoi = selectCut(dags, view, { tauPx, roi, cull, isLoaded });
+            without.cuts.forEach((cut, di) => assert.ok(subset(cut.refined, withRoi.cuts[di].refined), `trial ${trial}: roi not monotone`));
+        }
+    }
+    console.log(`${kTrials} views x 4 taus: some refinement in ${refinedSomething} object cuts, ` +
+        `budget-limited ${budgetLimited}, waiting for chunks ${partial}`);
+    assert.ok(refinedSomething > kTrials, 'the random views hardly ever refine anything: the test is not testing');
+    assert.ok(budgetLimited > 0, 'the budget never limited a cut');
+});
+
+test('drawn clusters of random cuts form closed, consistently oriented surfaces (decoded with draco3d)', { skip: kSkip }, async () => {
+    const { json, buffers, objects } = getModel();
+    const draco3d = (await import('draco3d')).default;
+    const draco = await draco3d.createDecoderModule({});
+    // positions of every cluster, as keys of exact float values
+    const keysOf = new Map();  // mesh/primitive -> { keys: string[], index }
+    const clusterTriangles = (cluster) => {
+        const id = `${cluster.mesh}/${cluster.primitive ?? 0}`;
+        if (!keysOf.has(id)) {
+            const primitive = json.meshes[cluster.mesh].primitives[cluster.primitive ?? 0];
+            const ext = primitive.extensions?.KHR_draco_mesh_compression;
+            let positions;
+            let index;
+            if (ext !== undefined) {
+                ({ positions, index } = dracoDecode(draco, bufferViewBytes(json, buffers, ext.bufferView), ext.attributes.POSITION));
+            } else {
+                positions = readAccessor(json, buffers, primitive.attributes.POSITION);
+                index = readAccessor(json, buffers, primitive.indices);
+            }
+            const keys = [];
+            for (let i = 0; i < positions.length / 3; ++i) {
+                keys.push(`${positions[3 * i] + 0},${positions[3 * i + 1] + 0},${positions[3 * i + 2] + 0}`);
+            }
+            keysOf.set(id, { keys, index });
+        }
+        const { keys, index } = keysOf.get(id);
+        const out = [];
+        for (let t = 0; t < index.length; t += 3) out.push([keys[index[t]], keys[index[t + 1]], keys[index[t + 2]]]);
+        return out;
+    };
+    const dags = objects.map((o) => o.dag);
+    const scene = sceneSphere(objects);
+    const rnd = random(777);
+    let checked = 0;
+    for (let trial = 0; trial < 16; ++trial) {
+        const view = randomView(rnd, scene);
+        const roi = { center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius), radius: scene.radius * 0.2, factor: 4 };
+        const base = dags.reduce((s, d) => s + d.baseTriangles, 0);
+        const budget = trial % 4 === 1 ? base * (1 + rnd() * 3) : Infinity;
+        const loaded = dags.map((d) => Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < 0.7 ? 1 : 0)));
+        const isLoaded = trial % 4 === 2 ? (di, c) => loaded[di][c] === 1 : null;
+        const result = selectCut(dags, view, { tauPx: Math.exp(rnd() * 4) * 0.3, roi: trial % 2 ? roi : null,
+                                               cull: trial % 3 !== 0, budget, isLoaded });
+        result.cuts.forEach((cut, di) => {
+            const triangles = cut.drawn.flatMap((c) => clusterTriangles(objects[di].ext.clusters[c]));
+            const problem = closedProblem(triangles);
+            assert.equal(problem, null, `trial ${trial}: ${objects[di].name}, ${cut.drawn.length} clusters: ${problem}`);
+            ++checked;
+        });
+    }
+    console.log(`${checked} cuts closed and consistently oriented`);
+});
+
+// ------------------------------------------------------------------------------------------------
+// geometry helpers
+
+function closedProblem(triangles) {
+    const directed = new Map();
+    for (const [a, b, c] of triangles) {
+        if (a === b || b === c || c === a) return 'degenerate triangle';
+        for (const [u, v] of [[a, b], [b, c], [c, a]]) {
+            const key = `${u}|${v}`;
+            if (directed.has(key)) return `directed edge ${key} used twice`;
+            directed.set(key, 1);
+        }
+    }
+    for (const key of directed.keys()) {
+        const [u, v] = key.split('|');
+        if (!directed.has(`${v}|${u}`)) return `edge ${key} has no reverse (hole or crack)`;
+    }
+    return null;
+}
+
+function bufferViewBytes(json, buffers, index) {
+    const view = json.bufferViews[index];
+    const start = view.byteOffset ?? 0;
+    return buffers[view.buffer].subarray(start, start + view.byteLength);
+}
+
+function readAccessor(json, buffers, index) {
+    const accessor = json.accessors[index];
+    const n = { SCALAR: 1, VEC3: 3 }[accessor.type];
+    const bytes = bufferViewBytes(json, buffers, accessor.bufferView);
+    const offset = bytes.byteOffset + (accessor.byteOffset ?? 0);
+    const copy = (T) => new T(bytes.buffer.slice(offset, offset + accessor.count * n * T.BYTES_PER_ELEMENT));
+    switch (accessor.componentType) {
+    case 5126: return copy(Float32Array);
+    case 5125: return copy(Uint32Array);
+    case 5123: return copy(Uint16Array);
+    case 5121: return copy(Uint8Array);
+    default: throw new Error(`accessor ${index}: component type ${accessor.componentType}`);
+    }
+}
+
+function dracoDecode(draco, bytes, positionId) {
+    const array = new Int8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+    const decoder = new draco.Decoder();
+    const mesh = new draco.Mesh();
+    try {
+        const status = decoder.DecodeArrayToMesh(array, array.byteLength, mesh);
+        if (!status.ok()) throw new Error(`Draco: ${status.error_msg()}`);
+        const numPoints = mesh.num_points();
+        const numFaces = mesh.num_faces();
+        const attribute = decoder.GetAttributeByUniqueId(mesh, positionId);
+        const floats = new draco.DracoFloat32Array();
+        decoder.GetAttributeFloatForAllPoints(mesh, attribute, floats);
+        const positions = new Float32Array(numPoints * 3);
+        for (let i = 0; i < positions.length; ++i) positions[i] = floats.GetValue(i);
+        draco.destroy(floats);
+        const index = new Uint32Array(numFaces * 3);
+        const face = new draco.DracoInt32Array();
+        for (let f = 0; f < numFaces; ++f) {
+            decoder.GetFaceFromMesh(mesh, f, face);
+            index[3 * f] = face.GetValue(0);
+            index[3 * f + 1] = face.GetValue(1);
+            index[3 * f + 2] = face.GetValue(2);
+        }
+        draco.destroy(face);
+        return { positions, index };
+    } finally {
+        draco.destroy(mesh);
+        draco.destroy(decoder);
+    }
+}
