@@ -124,7 +124,9 @@ function setBudget(triangles) {
 let gltf = null;
 let strata = null;  // the plugin of the current model (null for a file without the extension)
 const timing = { start: performance.timeOrigin, loadStart: 0, loaded: 0, firstFrame: 0, refined: 0 };
-const frameTimes = [];
+const frameTimes = [];    // intervals between consecutive animation frames that both rendered (ms)
+const renderStamps = [];  // performance.now() of every rendered frame
+const tickTimes = [];     // intervals between animation frames, rendered or not (main-thread jank)
 let lastFrame = 0;
 
 async function openUrl(url) {
@@ -406,7 +408,11 @@ function frame(now) {
     // A change of the cut alone (chunks arriving) is drawn at most every 2 frame times: where
     // drawing is slow (software WebGL, huge cuts) loading then keeps most of the main thread.
     if (cutChanged && now - lastRender >= Math.min(500, 2 * renderInterval)) dirty = true;
+    if (lastFrame > 0) tickTimes.push(now - lastFrame);
+    if (tickTimes.length > 20000) tickTimes.splice(0, tickTimes.length - 20000);
     if (dirty) {
+        renderStamps.push(now);
+        if (renderStamps.length > 20000) renderStamps.splice(0, renderStamps.length - 20000);
         if (rendered) renderInterval = 0.8 * renderInterval + 0.2 * (now - lastFrame);
         lastRender = now;
         cutChanged = false;
@@ -443,7 +449,7 @@ function nextFrame() {
 }
 
 window.strataViewer = {
-    THREE, renderer, scene, camera, controls, settings, timing, frameTimes, errors, renderedFrames: 0,
+    THREE, renderer, scene, camera, controls, settings, timing, frameTimes, renderStamps, tickTimes, errors, renderedFrames: 0,
     /// Draws the next frame even if nothing changed.
     redraw() { dirty = true; },
     get gltf() { return gltf; },

@@ -4,7 +4,7 @@
 // page (index.html) in headless Chromium (Debian's chromium, software WebGL).
 //
 //   node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N]
-//        [--viewport WxH] [--json FILE]
+//        [--viewport WxH] [--json FILE] [--no-zoom]
 //
 // OUT: a folder written by `strata build` (OUT/model.glb, the progressive model, and OUT/scene.glb,
 // the full-resolution plain glTF). --gltf: a folder written with `--model-format gltf` from the
@@ -15,9 +15,11 @@
 // viewer's fitted anterior view), tau 1 px, the default triangle budget:
 //   first frame   ms from navigation to the first frame that shows the model; model bytes then
 //   refined       ms until nothing is loading or queued (progressive) ; model bytes then
-//   frames        frame times (rAF deltas) from the first frame to the refined state: median,
-//                 95th percentile, max
-//   zoom          the camera dollied to 40 % of the distance: ms until refined, bytes, frame times
+//   redraw        intervals between drawn frames from the first frame to the refined state
+//                 (the page draws on demand: when the cut changed), median, 95th percentile, max
+//   zoom in       the camera dollied to 40 % of the distance: ms until refined, bytes, triangles,
+//                 redraw intervals meanwhile
+//   longest frame gap: the longest interval between animation frames (main thread busy)
 // --throttle 20,40 emulates a 20 Mbit/s link with 40 ms round trips (Chrome DevTools protocol),
 // since on the loopback bytes cost almost nothing.
 import { existsSync, mkdtempSync, readdirSync, rmSync, statSync, symlinkSync, writeFileSync } from 'node:fs';
@@ -28,12 +30,12 @@ import { chromiumMissing, launchChromium } from '../chromium.mjs';
 
 function usage(message) {
     if (message) console.error(`first-frame: ${message}`);
-    console.error('usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE]');
+    console.error('usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom]');
     process.exit(2);
 }
 
 function parseArgs(args) {
-    const options = { out: null, gltf: null, throttle: null, runs: 1, viewport: { width: 960, height: 640 }, json: null };
+    const options = { out: null, gltf: null, throttle: null, runs: 1, viewport: { width: 960, height: 640 }, json: null, zoom: true };
     for (let i = 0; i < args.length; ++i) {
         const arg = args[i];
         if (arg === '--gltf') options.gltf = args[++i];
@@ -46,6 +48,7 @@ function parseArgs(args) {
             const [width, height] = (args[++i] ?? '').split('x').map(Number);
             options.viewport = { width, height };
         } else if (arg === '--json') options.json = args[++i];
+        else if (arg === '--no-zoom') options.zoom = false;
         else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
         else if (options.out === null) options.out = arg;
         else usage('one OUT folder');
@@ -107,44 +110,37 @@ async function measure(url, options, label) {
         const first = await page.evaluate(() => {
             const v = window.strataViewer;
             const t = v.timing;
-            const frames = v.frameTimes.slice();
             return {
                 state: v.state(), firstFrameMs: t.firstFrame, refinedMs: t.refined,
                 firstBytes: v.modelBytes(t.firstFrame), refinedBytes: v.modelBytes(t.refined),
-                frameTimes: frames,
+                stamps: v.renderStamps.filter((x) => x >= t.firstFrame && x <= t.refined),
+                ticks: v.tickTimes.slice(),
             };
         });
-        // frames from the first frame to the refined state: the last frames recorded (rAF deltas),
-        // count them by summing back from the end up to (refined - firstFrame) ms
-        const span = first.refinedMs - first.firstFrameMs;
-        const refining = [];
-        let sum = 0;
-        for (let i = first.frameTimes.length - 1; i >= 0 && sum < span; --i) {
-            refining.unshift(first.frameTimes[i]);
-            sum += first.frameTimes[i];
-        }
         // zoom in
-        const zoom = await page.evaluate(async () => {
+        const zoom = !options.zoom ? { ms: null, bytes: 0, requests: 0, stamps: [], ticks: [], state: { triangles: null } }
+            : await page.evaluate(async () => {
             const v = window.strataViewer;
             const before = v.modelBytes();
             const start = performance.now();
-            v.frameTimes.length = 0;
+            v.tickTimes.length = 0;
             v.dolly(0.4);
             await v.idle(600000, 3);
             const end = performance.now();
             const after = v.modelBytes();
             return { ms: end - start, bytes: after.bytes - before.bytes, requests: after.requests - before.requests,
-                     frameTimes: v.frameTimes.slice(), state: v.state() };
+                     stamps: v.renderStamps.filter((x) => x >= start && x <= end), ticks: v.tickTimes.slice(), state: v.state() };
         });
+        const intervals = (stamps) => stamps.slice(1).map((x, i) => x - stamps[i]);
         return {
             label,
             triangles: first.state.triangles,
             firstFrameMs: first.firstFrameMs, firstFrameBytes: first.firstBytes.bytes, firstFrameRequests: first.firstBytes.requests,
             refinedMs: first.refinedMs, refinedBytes: first.refinedBytes.bytes, refinedRequests: first.refinedBytes.requests,
-            refiningFrames: quantiles(refining),
+            refiningFrames: quantiles(intervals(first.stamps)), loadTicks: quantiles(first.ticks),
             maxErrorPx: first.state.maxErrorPx, maxErrorMm: first.state.maxErrorMm,
             zoom: { ms: zoom.ms, bytes: zoom.bytes, requests: zoom.requests, triangles: zoom.state.triangles,
-                    frames: quantiles(zoom.frameTimes.slice(1)) },
+                    frames: quantiles(intervals(zoom.stamps)), ticks: quantiles(zoom.ticks) },
             totalBytes: first.state.bytesTotal,
             errors,
         };
@@ -202,14 +198,15 @@ async function main() {
         const net = options.throttle ? `${options.throttle.mbit} Mbit/s, ${options.throttle.rtt} ms RTT (emulated)` : 'loopback, unthrottled';
         console.log(`model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
             `tau 1 px; Chromium software WebGL (SwiftShader)`);
-        console.log('variant                      | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | frame ms med/p95/max (refining) | zoom: ms, MB, tris, frame ms med/p95/max');
+        console.log('variant                    | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms');
         for (const r of results) {
             const f = r.refiningFrames;
             const z = r.zoom;
-            console.log(`${r.label.padEnd(28)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
+            console.log(`${r.label.padEnd(26)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
                 `${fmtMB(r.firstFrameBytes).padStart(9)} | ${String(r.triangles).padStart(12)} | ${fmtMs(r.refinedMs).padStart(10)} | ` +
-                `${fmtMB(r.refinedBytes).padStart(10)} | ${fmtMs(f.median)}/${fmtMs(f.p95)}/${fmtMs(f.max)} (${f.n} frames) | ` +
-                `${fmtMs(z.ms)}, ${fmtMB(z.bytes)}, ${z.triangles}, ${fmtMs(z.frames.median)}/${fmtMs(z.frames.p95)}/${fmtMs(z.frames.max)} (${z.frames.n} frames)` +
+                `${fmtMB(r.refinedBytes).padStart(10)} | ${fmtMs(f.median)}/${fmtMs(f.p95)}/${fmtMs(f.max)} (${f.n}) | ` +
+                `${fmtMs(z.ms)}, ${fmtMB(z.bytes)}, ${z.triangles} | ${fmtMs(z.frames.median)}/${fmtMs(z.frames.p95)}/${fmtMs(z.frames.max)} (${z.frames.n}) | ` +
+                `${fmtMs(Math.max(r.loadTicks.max ?? 0, z.ticks.max ?? 0))}` +
                 (r.errors.length ? `  ERRORS: ${r.errors.slice(0, 2).join('; ')}` : ''));
         }
         if (options.json) writeFileSync(options.json, JSON.stringify({ options, results }, null, 2));
