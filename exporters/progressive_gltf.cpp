@@ -346,13 +346,10 @@ Chunk encode_chunk(const std::filesystem::path& path,
 /// (`.gltf`); for `.glb` everything is appended to buffer 0.
 class Buffers {
 public:
-    Buffers(Json& json, bool single) : json_(json), single_(single), data_(1) {}
+    explicit Buffers(Json& json) : json_(json), data_(1) {}
 
     /// Appends `bytes` to `buffer` (4-byte aligned) as a new buffer view; returns its index.
     int add_view(std::size_t buffer, const void* bytes, std::size_t size, int target) {
-        if (single_) {
-            buffer = 0;
-        }
         if (data_.size() <= buffer) {
             data_.resize(buffer + 1);
         }
@@ -369,9 +366,26 @@ public:
 
     std::vector<std::string>& data() { return data_; }
 
+    /// For a .glb: every buffer appended to buffer 0, the coarsest level first, the views moved
+    /// with their data. The base meshes stay together at the start of the BIN chunk (one range
+    /// request for a first frame) and a prefix of the file holds the coarse levels.
+    void merge_into_first() {
+        std::vector<std::size_t> start(data_.size(), 0);
+        for (std::size_t b = data_.size(); b-- > 1;) {
+            start[b] = data_[0].size();
+            data_[0] += data_[b];
+            data_[b].clear();
+        }
+        data_.resize(1);
+        for (Json& view : json_["bufferViews"]) {
+            const std::size_t b = view["buffer"].get<std::size_t>();
+            view["byteOffset"] = start[b] + view["byteOffset"].get<std::size_t>();
+            view["buffer"] = 0;
+        }
+    }
+
 private:
     Json& json_;
-    bool single_;
     std::vector<std::string> data_;
 };
 
@@ -607,7 +621,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     json["bufferViews"] = Json::array();
     json["nodes"].push_back(
         {{"name", "patient"}, {"matrix", detail::kPatientToGltf}, {"children", Json::array()}});
-    Buffers buffers(json, single);
+    Buffers buffers(json);
     ProgressiveStats stats;
 
     for (const ProgressiveObject& object : objects) {
@@ -719,6 +733,9 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
 
     // Buffers: .glb one (the BIN chunk); .gltf buffer 0 = <stem>.bin, others <stem>.level<L>.bin,
     // renumbered so that levels without chunks leave no empty buffer.
+    if (single) {
+        buffers.merge_into_first();
+    }
     std::vector<std::string>& data = buffers.data();
     std::vector<int> renumber(data.size(), -1);
     json["buffers"] = Json::array();
@@ -741,7 +758,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     for (Json& view : json["bufferViews"]) {
         view["buffer"] = renumber[view["buffer"].get<std::size_t>()];
     }
-    const std::string text = json.dump(single ? -1 : 1);
+    const std::string text = json.dump();  // compact: the JSON is most of a first frame's bytes
     if (single) {
         const std::string bytes = glb_bytes(path, text, data[0]);
         write_file_atomically(path, bytes);

@@ -50,13 +50,14 @@ struct ProgressiveStats {
 };
 
 /// Writes `objects` as progressive glTF 2.0 (../shared/DESIGN.md section 4, schema/README.md):
-/// `.glb` (one file) or `.gltf` with `<stem>.bin` (base meshes) and `<stem>.level<L>.bin` (the
-/// Draco chunks of level L, one buffer view each, for HTTP range requests), by the extension of
-/// `path`. A root node "patient" maps LPS mm to glTF metres; under it one node per object whose
-/// matrix maps the storage frame (x, y px, z in slices; x negated when the frame mirrors, so the
-/// matrix is a rotation times positive scales) to LPS mm. The node's mesh is the base: one plain
-/// primitive per root cluster. Every other cluster is a mesh of its own with one
-/// KHR_draco_mesh_compression primitive (Edgebreaker) carrying POSITION, NORMAL and
+/// `.glb` (one file: the base meshes' data first, then the chunks from the coarsest level down) or
+/// `.gltf` with `<stem>.bin` (base meshes) and `<stem>.level<L>.bin` (the Draco chunks of level L,
+/// one buffer view each, for HTTP range requests), by the extension of `path`; compact JSON. A root
+/// node "patient" maps LPS mm to glTF metres; under it one node per object whose matrix maps the
+/// storage frame (x, y px, z in slices; x negated when the frame mirrors, so the matrix is a
+/// rotation times positive scales) to LPS mm. The node's mesh is the base: one plain primitive per
+/// root cluster. Every other cluster is a mesh of its own with one KHR_draco_mesh_compression
+/// primitive (Edgebreaker) carrying POSITION, NORMAL and
 /// `_COARSE_POSITION` (where each vertex goes in the coarser clusters, for geomorphs); the
 /// positions are quantized on the model's own grid, so they are lossless and shared vertices
 /// bit-identical. Normals are the full-resolution surface's. Each node's

@@ -8,7 +8,9 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -359,6 +361,36 @@ TEST(ProgressiveGltf, GlbHoldsTheModelExactly) {
     EXPECT_GT(stats.chunks, 0u);
     EXPECT_LT(stats.base_bytes, stats.total_bytes);
     expect_file_holds_model(dir / "torus.glb", m, 1.0);
+    // The base meshes' data is one range at the start of the BIN chunk (one request for a first
+    // frame); the chunks follow, coarsest level first.
+    const Written w = load(dir / "torus.glb");
+    std::set<int> chunk_views;
+    std::vector<std::pair<std::size_t, std::uint32_t>> chunk_offsets;  // offset, level
+    const Json& ext = w.json["nodes"][1]["extensions"]["STRATA_progressive_mesh"];
+    for (const Json& cluster : ext["clusters"]) {
+        const Json& p = w.json["meshes"][cluster["mesh"].get<int>()]["primitives"][0];
+        if (p.contains("extensions")) {
+            const int view = p["extensions"]["KHR_draco_mesh_compression"]["bufferView"];
+            chunk_views.insert(view);
+            chunk_offsets.emplace_back(w.json["bufferViews"][view]["byteOffset"].get<std::size_t>(),
+                                       cluster["level"].get<std::uint32_t>());
+        }
+    }
+    std::size_t base_end = 0, first_chunk = std::numeric_limits<std::size_t>::max();
+    for (std::size_t v = 0; v < w.json["bufferViews"].size(); ++v) {
+        const Json& view = w.json["bufferViews"][v];
+        const std::size_t offset = view.value("byteOffset", std::size_t{0});
+        if (chunk_views.count(static_cast<int>(v)) != 0) {
+            first_chunk = std::min(first_chunk, offset);
+        } else {
+            base_end = std::max(base_end, offset + view["byteLength"].get<std::size_t>());
+        }
+    }
+    EXPECT_LE(base_end, first_chunk) << "base data interleaved with chunks";
+    std::sort(chunk_offsets.begin(), chunk_offsets.end());
+    for (std::size_t i = 1; i < chunk_offsets.size(); ++i) {
+        EXPECT_GE(chunk_offsets[i - 1].second, chunk_offsets[i].second) << "finer level first";
+    }
 }
 
 TEST(ProgressiveGltf, GltfKeepsChunksInOneBufferFilePerLevel) {
