@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/slice_frame.h"
 #include "exporters/scene_gltf.h"
 #include "simplify/multires_dag.h"
 
@@ -21,16 +22,6 @@ struct ProgressiveObject {
     /// Slice space (x, y px, slice k at z = k d), positions on the grid of `grid_step` (the
     /// pipeline's quantize stage); not owned.
     const MultiresMesh* model = nullptr;
-};
-
-/// Where the models' slice space lies in the patient frame.
-struct SliceFrame {
-    /// Row-major 3 x 3: patient LPS mm per slice-space unit along x, y (px) and z (px, so a slice
-    /// step is d times the third column). Columns must be orthogonal (a voxel grid without shear).
-    std::array<double, 9> linear{1, 0, 0, 0, 1, 0, 0, 0, 1};
-    std::array<double, 3> origin{};  ///< LPS mm of the slice-space origin
-    double slice_spacing_px = 1.0;   ///< d
-    double error_mm_per_px = 1.0;    ///< mm per px of in-plane error (the larger in-plane spacing)
 };
 
 /// Options of `write_progressive_gltf`.

@@ -280,13 +280,6 @@ SliceStack load_stack(const std::string& input,
     return stack;
 }
 
-/// Millimetres per slice-space pixel for error bounds: the larger in-plane spacing, so an
-/// in-plane distance of e px is at most e times this in mm.
-double error_mm_per_px(const SliceStack& stack) {
-    const Vec3 spacing = stack.spacing_mm();
-    return std::max(spacing.x, spacing.y);
-}
-
 /// Name and colour of a label from the stack's table (a generated name when absent).
 SceneObject scene_object(const SliceStack& stack, std::uint16_t value) {
     const auto label = std::find_if(stack.label_table.begin(), stack.label_table.end(),
@@ -461,23 +454,6 @@ int info_of_file(const InfoOptions& options) {
         }
     }
     return 0;
-}
-
-/// The frame of the pipeline's slice space in the patient frame (for the progressive writer).
-SliceFrame slice_frame(const SliceStack& stack, double slice_spacing_px) {
-    SliceFrame frame;
-    const Vec3 origin = slice_to_world(stack, slice_spacing_px, {0, 0, 0});
-    frame.origin = {origin.x, origin.y, origin.z};
-    const std::array<Vec3, 3> units{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
-    for (int c = 0; c < 3; ++c) {
-        const Vec3 column = slice_to_world(stack, slice_spacing_px, units[c]) - origin;
-        for (int r = 0; r < 3; ++r) {
-            frame.linear[3 * r + c] = column[r];
-        }
-    }
-    frame.slice_spacing_px = slice_spacing_px;
-    frame.error_mm_per_px = error_mm_per_px(stack);
-    return frame;
 }
 
 }  // namespace

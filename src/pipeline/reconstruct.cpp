@@ -1,6 +1,7 @@
 #include "pipeline/reconstruct.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <mutex>
 #include <numeric>
@@ -38,6 +39,27 @@ double slice_spacing_px(const SliceStack& stack) {
 
 Vec3 slice_to_world(const SliceStack& stack, double slice_spacing_px, Vec3 p) {
     return stack.index_to_world.apply({p.x - 0.5, p.y - 0.5, p.z / slice_spacing_px});
+}
+
+double error_mm_per_px(const SliceStack& stack) {
+    const Vec3 spacing = stack.spacing_mm();
+    return std::max(spacing.x, spacing.y);
+}
+
+SliceFrame slice_frame(const SliceStack& stack, double slice_spacing_px) {
+    SliceFrame frame;
+    const Vec3 origin = slice_to_world(stack, slice_spacing_px, {0, 0, 0});
+    frame.origin = {origin.x, origin.y, origin.z};
+    const std::array<Vec3, 3> units{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+    for (int c = 0; c < 3; ++c) {
+        const Vec3 column = slice_to_world(stack, slice_spacing_px, units[c]) - origin;
+        for (int r = 0; r < 3; ++r) {
+            frame.linear[3 * r + c] = column[r];
+        }
+    }
+    frame.slice_spacing_px = slice_spacing_px;
+    frame.error_mm_per_px = error_mm_per_px(stack);
+    return frame;
 }
 
 TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const TriMesh& mesh) {

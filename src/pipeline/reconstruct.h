@@ -7,6 +7,7 @@
 #include "contours/slice_contours.h"
 #include "core/progress.h"
 #include "core/report.h"
+#include "core/slice_frame.h"
 #include "distance/distance_field.h"
 #include "input/slice_stack.h"
 #include "medial/medial_axis.h"
@@ -47,6 +48,14 @@ double slice_spacing_px(const SliceStack& stack);
 
 /// Maps a slice-space point (x, y px on the contour grid, z = k d px) to patient LPS mm.
 Vec3 slice_to_world(const SliceStack& stack, double slice_spacing_px, Vec3 p);
+
+/// Millimetres per slice-space pixel for error bounds: the larger in-plane spacing, so an in-plane
+/// distance of e px is at most e times this in mm.
+double error_mm_per_px(const SliceStack& stack);
+
+/// The frame of slice space (spacing d = `slice_spacing_px`) in patient LPS mm, as
+/// slice_to_world maps it, with the error scale of error_mm_per_px.
+SliceFrame slice_frame(const SliceStack& stack, double slice_spacing_px);
 
 /// A slice-space surface in patient LPS mm: every position through slice_to_world, triangles
 /// reversed when the affine mirrors (negative determinant) so they still face outwards.

@@ -239,24 +239,6 @@ Case load_case(const std::string& spec) {
     return c;
 }
 
-/// The CLI's frame of slice space in the patient frame (src/cli/commands.cpp, slice_frame).
-SliceFrame slice_frame(const SliceStack& stack, double slice_spacing_px) {
-    SliceFrame frame;
-    const Vec3 origin = slice_to_world(stack, slice_spacing_px, {0, 0, 0});
-    frame.origin = {origin.x, origin.y, origin.z};
-    const std::array<Vec3, 3> units{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
-    for (int c = 0; c < 3; ++c) {
-        const Vec3 column = slice_to_world(stack, slice_spacing_px, units[c]) - origin;
-        for (int r = 0; r < 3; ++r) {
-            frame.linear[3 * r + c] = column[r];
-        }
-    }
-    frame.slice_spacing_px = slice_spacing_px;
-    const Vec3 spacing = stack.spacing_mm();
-    frame.error_mm_per_px = std::max(spacing.x, spacing.y);
-    return frame;
-}
-
 /// The writer's storage frame: x negated when the slice frame mirrors (exporters/
 /// progressive_gltf.cpp, storage_frame); triangles are then reversed.
 bool frame_mirrors(const SliceFrame& frame) {
