@@ -2,6 +2,8 @@
 # README command 2: install dependencies, build, and run the whole test suite through CTest.
 #   bash scripts/test.sh              Release build in ./build
 #   bash scripts/test.sh --sanitize   AddressSanitizer + UndefinedBehaviorSanitizer in ./build-asan
+# Also installs what only the tests need: Debian's chromium (install-deps --tests) and the npm
+# packages of tests/node and web-viewer, as locked.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh --tests
