@@ -423,7 +423,7 @@ private:
         }
 
         CollapseOptions collapse;
-        collapse.target_triangles = before / 2;
+        collapse.target_triangles = std::size_t(double(before) * options_.keep_fraction);
         collapse.error_floor_px = attempt.children_error;
         collapse.max_error_px = std::min(
             options_.max_error_px,
@@ -532,6 +532,11 @@ MultiresMesh build_multires_mesh(const TriMesh& surface,
                                  const SliceErrorMeter& meter,
                                  double full_resolution_error_px,
                                  const MultiresOptions& options) {
+    if (!(options.keep_fraction > 0.0 && options.keep_fraction < 1.0)) {
+        throw Error(ErrorCode::InvalidInput, "multiresolution: keep_fraction " +
+                                                 std::to_string(options.keep_fraction) +
+                                                 ", expected a fraction between 0 and 1");
+    }
     DagBuilder builder(surface, meter, full_resolution_error_px, options);
     return builder.run();
 }

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/error.h"
 #include "core/report.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
@@ -122,6 +123,52 @@ TEST(MultiresDag, GeomorphReproducesCoarseClusters) {
             }
         }
         EXPECT_EQ(moved, triangle_set(m, m.groups[g].produced)) << "group " << g;
+    }
+}
+
+std::size_t triangle_count(const MultiresMesh& mesh, const std::vector<std::uint32_t>& ids) {
+    std::size_t n = 0;
+    for (const std::uint32_t c : ids) {
+        n += mesh.clusters[c].triangles.size();
+    }
+    return n;
+}
+
+TEST(MultiresDag, GroupsShrinkToTheKeepFractionAtMost) {
+    const Phantom phantom = make_phantom("torus");
+    const std::vector<int> genera = {1};
+    for (const double keep : {0.25, 0.5}) {
+        SCOPED_TRACE("keep_fraction " + std::to_string(keep));
+        Report report;
+        ReconstructOptions options;
+        options.multires.cluster_triangles = 256;
+        options.multires.keep_fraction = keep;
+        const Reconstruction r = reconstruct(phantom.stack, options, report);
+        const MultiresMesh& m = r.models.at(0);
+        ASSERT_GT(m.groups.size(), 4u);
+        for (std::size_t g = 0; g < m.groups.size(); ++g) {
+            const double before = double(triangle_count(m, m.groups[g].consumed));
+            const double after = double(triangle_count(m, m.groups[g].produced));
+            // a half-edge collapse removes two triangles: the last one may overshoot by that
+            EXPECT_GE(after, std::floor(before * keep) - 2.0) << "group " << g;
+            EXPECT_LE(after, before * (1.0 - options.multires.min_reduction)) << "group " << g;
+        }
+        for (std::uint32_t level = 0; level < level_count(m); ++level) {
+            SCOPED_TRACE("level " + std::to_string(level));
+            const MultiresCut cut = select_cut_at_level(m, level);
+            test::expect_valid_cut(cut_mesh(m, cut), r, 0, genera, cut.error_px);
+        }
+    }
+}
+
+TEST(MultiresDag, RejectsKeepFractionOutsideZeroOne) {
+    const Built b = build("sphere");
+    const Reconstruction& r = b.reconstruction;
+    const SliceErrorMeter meter(r.contours, r.fields, r.surfaces[0].label, r.slice_spacing_px);
+    for (const double keep : {0.0, 1.0, -0.5, std::nan("")}) {
+        MultiresOptions options;
+        options.keep_fraction = keep;
+        EXPECT_THROW(build_multires_mesh(r.surfaces[0].mesh, meter, 0.5, options), Error) << keep;
     }
 }
 
