@@ -156,40 +156,54 @@ GridPoint grid_point(const Vec3& p, double step, double d, double flip_x) {
     return {{to_float(flip_x * p.x), to_float(p.y), to_float(z)}};
 }
 
-/// Unit area-weighted normals of the full-resolution surface (level-0 clusters), storage frame.
-std::vector<std::array<float, 3>> storage_normals(const MultiresMesh& model,
-                                                  const std::vector<GridPoint>& points,
-                                                  bool reverse) {
+}  // namespace
+
+std::vector<std::vector<std::array<float, 3>>> progressive_cluster_normals(
+    const MultiresMesh& model, const std::vector<std::array<float, 3>>& points, bool reverse) {
+    std::vector<std::vector<std::array<float, 3>>> normals(model.clusters.size());
     std::vector<Vec3> sum(points.size());
-    for (const MultiresCluster& cluster : model.clusters) {
-        if (cluster.level != 0) {
-            continue;
-        }
-        for (const auto& t : cluster.triangles) {
-            std::array<std::uint32_t, 3> ids{cluster.vertices[t[0]], cluster.vertices[t[1]],
-                                             cluster.vertices[t[2]]};
-            if (reverse) {
-                std::swap(ids[1], ids[2]);
+    const auto at = [&](std::uint32_t v) { return Vec3{points[v][0], points[v][1], points[v][2]}; };
+    for (std::uint32_t level = 0; level < level_count(model); ++level) {
+        const MultiresCut cut = select_cut_at_level(model, level);
+        for (const std::uint32_t c : cut.clusters) {
+            const MultiresCluster& cluster = model.clusters[c];
+            for (const auto& t : cluster.triangles) {
+                std::array<std::uint32_t, 3> ids{cluster.vertices[t[0]], cluster.vertices[t[1]],
+                                                 cluster.vertices[t[2]]};
+                if (reverse) {
+                    std::swap(ids[1], ids[2]);
+                }
+                const Vec3 a = at(ids[0]);
+                const Vec3 n = cross(at(ids[1]) - a, at(ids[2]) - a);
+                for (const std::uint32_t v : ids) {
+                    sum[v] = sum[v] + n;
+                }
             }
-            const auto at = [&](std::uint32_t v) {
-                return Vec3{points[v].v[0], points[v].v[1], points[v].v[2]};
-            };
-            const Vec3 a = at(ids[0]);
-            const Vec3 n = cross(at(ids[1]) - a, at(ids[2]) - a);
-            for (std::uint32_t v : ids) {
-                sum[v] = sum[v] + n;
+        }
+        for (const std::uint32_t c : cut.clusters) {
+            const MultiresCluster& cluster = model.clusters[c];
+            if (cluster.level != level) {
+                continue;
+            }
+            std::vector<std::array<float, 3>>& out = normals[c];
+            out.reserve(cluster.vertices.size());
+            for (const std::uint32_t v : cluster.vertices) {
+                const double length = norm(sum[v]);
+                const Vec3 n = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * sum[v]
+                                                                       : Vec3{0, 0, 1};
+                out.push_back({to_float(n.x), to_float(n.y), to_float(n.z)});
             }
         }
-    }
-    std::vector<std::array<float, 3>> normals(points.size());
-    for (std::size_t v = 0; v < points.size(); ++v) {
-        const double length = norm(sum[v]);
-        const Vec3 n =
-            (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * sum[v] : Vec3{0, 0, 1};
-        normals[v] = {to_float(n.x), to_float(n.y), to_float(n.z)};
+        for (const std::uint32_t c : cut.clusters) {
+            for (const std::uint32_t v : model.clusters[c].vertices) {
+                sum[v] = Vec3{};
+            }
+        }
     }
     return normals;
 }
+
+namespace {
 
 /// One encoded chunk and what its accessors need.
 struct Chunk {
@@ -214,7 +228,7 @@ Chunk encode_chunk(const std::filesystem::path& path,
                    const std::string& where,
                    const MultiresCluster& cluster,
                    const std::vector<GridPoint>& points,
-                   const std::vector<std::array<float, 3>>& normals,
+                   const std::vector<std::array<float, 3>>& normals,  // per cluster vertex
                    bool reverse,
                    double step,
                    const ProgressiveOptions& options) {
@@ -237,7 +251,7 @@ Chunk encode_chunk(const std::filesystem::path& path,
         const GridPoint& p = points[cluster.vertices[i]];
         const GridPoint& c = points[cluster.coarse_vertices[i]];
         mesh.attribute(position)->SetAttributeValue(index, p.v.data());
-        mesh.attribute(normal)->SetAttributeValue(index, normals[cluster.vertices[i]].data());
+        mesh.attribute(normal)->SetAttributeValue(index, normals[i].data());
         mesh.attribute(coarse)->SetAttributeValue(index, c.v.data());
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::min({lo[k], double(p.v[k]), double(c.v[k])});
@@ -399,7 +413,7 @@ Json base_primitive(Json& json,
                     Buffers& buffers,
                     const MultiresCluster& cluster,
                     const std::vector<GridPoint>& points,
-                    const std::vector<std::array<float, 3>>& normals,
+                    const std::vector<std::array<float, 3>>& normals,  // per cluster vertex
                     bool reverse,
                     int material) {
     const std::size_t n = cluster.vertices.size();
@@ -410,10 +424,11 @@ Json base_primitive(Json& json,
     std::array<float, 3> lo{}, hi{};
     lo.fill(std::numeric_limits<float>::infinity());
     hi.fill(-std::numeric_limits<float>::infinity());
-    for (const std::uint32_t v : cluster.vertices) {
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint32_t v = cluster.vertices[i];
         for (int k = 0; k < 3; ++k) {
             positions.push_back(points[v].v[k]);
-            normal_data.push_back(normals[v][k]);
+            normal_data.push_back(normals[i][k]);
             lo[k] = std::min(lo[k], points[v].v[k]);
             hi[k] = std::max(hi[k], points[v].v[k]);
         }
@@ -636,7 +651,10 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
             points[v] =
                 grid_point(model.positions[v], step, frame.slice_spacing_px, storage.flip_x);
         }
-        const auto normals = storage_normals(model, points, reverse);
+        std::vector<std::array<float, 3>> storage_points(points.size());
+        std::transform(points.begin(), points.end(), storage_points.begin(),
+                       [](const GridPoint& p) { return p.v; });
+        const auto normals = progressive_cluster_normals(model, storage_points, reverse);
 
         json["materials"].push_back(
             {{"name", name},
@@ -659,7 +677,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
         parallel_for(chunk_clusters.size(), options.threads, [&](std::size_t i) {
             const std::uint32_t c = chunk_clusters[i];
             chunks[i] = encode_chunk(path, "'" + name + "' cluster " + std::to_string(c),
-                                     model.clusters[c], points, normals, reverse, step, options);
+                                     model.clusters[c], points, normals[c], reverse, step, options);
         });
 
         Json base;
@@ -676,7 +694,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
                 entry["mesh"] = base_mesh;
                 entry["primitive"] = base["primitives"].size();
                 base["primitives"].push_back(
-                    base_primitive(json, buffers, cluster, points, normals, reverse, material));
+                    base_primitive(json, buffers, cluster, points, normals[c], reverse, material));
             } else {
                 const Chunk& chunk = chunks[next_chunk++];
                 entry["mesh"] = json["meshes"].size();

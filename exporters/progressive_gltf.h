@@ -51,8 +51,8 @@ struct ProgressiveStats {
 /// primitive (Edgebreaker) carrying POSITION, NORMAL and
 /// `_COARSE_POSITION` (where each vertex goes in the coarser clusters, for geomorphs); the
 /// positions are quantized on the model's own grid, so they are lossless and shared vertices
-/// bit-identical. Normals are the full-resolution surface's. Each node's
-/// `extensions.STRATA_progressive_mesh` lists clusters and groups with errors (metres) and
+/// bit-identical. Normals are those of the cluster's level (progressive_cluster_normals). Each
+/// node's `extensions.STRATA_progressive_mesh` lists clusters and groups with errors (metres) and
 /// spheres in the scene frame. Every encoded chunk is decoded again and compared with its
 /// cluster (triangles, orientation, coarse positions) before anything is written.
 ///
@@ -65,5 +65,15 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
                                         const SliceFrame& frame,
                                         const SceneInfo& info,
                                         const ProgressiveOptions& options = {});
+
+/// The NORMAL the writer stores for every cluster of `model` (one per entry of the cluster's
+/// `vertices`, unit): the area-weighted vertex normals of the cut of the cluster's level
+/// (select_cut_at_level(model, level) holds every cluster of that level), over `points` (the
+/// model's vertices in the storage frame; triangles reversed when `reverse`, for mirroring
+/// frames). Clusters of one level agree on every vertex they share; a coarse cluster is shaded as
+/// the smooth surface it is (the full-resolution normals at its few vertices would look faceted
+/// and cost bytes: Draco predicts normals from the decoded positions).
+std::vector<std::vector<std::array<float, 3>>> progressive_cluster_normals(
+    const MultiresMesh& model, const std::vector<std::array<float, 3>>& points, bool reverse);
 
 }  // namespace strata

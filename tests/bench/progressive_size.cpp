@@ -2,8 +2,11 @@
 // one run, plus the cluster-size sweep of DESIGN.md section 4.
 //
 //   progressive_size [--case SPEC]... [--sweep-case SPEC]... [--sweep 256,512,1024,2048,4096]
-//                    [--cluster-triangles N] [--gltfpack EXE] [--work DIR]
+//                    [--cluster-triangles N] [--keep-fraction F] [--gltfpack EXE] [--work DIR]
 //
+// --keep-fraction: MultiresOptions::keep_fraction of every model (default its default), to
+// compare ladders: the main table then shows the uniform-error cuts' triangles and the chunk
+// bytes a viewer has loaded to show them.
 // SPEC: `phantom:NAME` (make_phantom) or `stack:PATH` (read_slice_stack); every non-zero label is
 // an object, as in `strata build`. A spec given both as --case and --sweep-case is reconstructed
 // once.
@@ -19,8 +22,8 @@
 //           chunks are (draco::ExpertEncoder, Edgebreaker, speed 10 - 7 = 3, POSITION with
 //           explicit quantization on the model's grid in the same storage frame: x, y px, z in
 //           slices; origin = the mesh's lowest grid point, range = step * (2^bits - 1), bits the
-//           fewest that span the mesh; NORMAL the same area-weighted full-resolution normals,
-//           10-bit octahedral). Lossless on the grid, like ours. Reported: raw Draco bytes
+//           fewest that span the mesh; NORMAL the area-weighted full-resolution normals (our level
+//           0s), 10-bit octahedral). Lossless on the grid, like ours. Reported: raw Draco bytes
 //           (POSITION + NORMAL, and POSITION only) and a minimal .glb wrapping the POSITION +
 //           NORMAL meshes (KHR_draco_mesh_compression; node matrices, one material per object).
 //   gltfpack (npm `gltfpack`, meshoptimizer's packer as WASM) on WORK/scene.glb, the plain
@@ -105,6 +108,7 @@ struct Arguments {
     std::vector<std::string> sweep_cases;
     std::vector<std::size_t> sweep_sizes{256, 512, 1024, 2048, 4096};
     std::size_t cluster_triangles = MultiresOptions{}.cluster_triangles;
+    double keep_fraction = MultiresOptions{}.keep_fraction;
     std::string gltfpack;
     std::filesystem::path work;
 };
@@ -112,7 +116,8 @@ struct Arguments {
 std::string usage() {
     return "usage: progressive_size [--case phantom:NAME | --case stack:PATH]...\n"
            "                        [--sweep-case SPEC]... [--sweep 256,512,1024,2048,4096]\n"
-           "                        [--cluster-triangles N] [--gltfpack EXE] [--work DIR]\n";
+           "                        [--cluster-triangles N] [--keep-fraction F] [--gltfpack EXE]\n"
+           "                        [--work DIR]\n";
 }
 
 std::size_t parse_count(const std::string& text, const std::string& what) {
@@ -152,6 +157,19 @@ Arguments parse_arguments(int argc, char** argv) {
             }
         } else if (arg == "--cluster-triangles") {
             args.cluster_triangles = parse_count(value(i), "--cluster-triangles");
+        } else if (arg == "--keep-fraction") {
+            const std::string text = value(i);
+            std::size_t used = 0;
+            try {
+                args.keep_fraction = std::stod(text, &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used == 0 || used != text.size() || !(args.keep_fraction > 0.0) ||
+                !(args.keep_fraction < 1.0)) {
+                throw Error{ErrorCode::InvalidInput,
+                            "--keep-fraction: '" + text + "', expected a number in (0, 1)"};
+            }
         } else if (arg == "--gltfpack") {
             args.gltfpack = value(i);
         } else if (arg == "--work") {
@@ -270,12 +288,14 @@ std::array<double, 16> storage_matrix(const SliceFrame& frame) {
 
 using Float3 = std::array<float, 3>;
 
-/// One object's model in the writer's storage frame: grid points and full-resolution normals.
+/// One object's model in the writer's storage frame: grid points and normals.
 struct StorageModel {
     const MultiresMesh* model = nullptr;
     std::vector<Float3> points;   ///< per model vertex, on the grid (x, y px; z in slices)
     std::vector<Float3> normals;  ///< per model vertex, unit, area-weighted over level 0
-    bool reverse = false;         ///< triangles reversed (mirroring frame)
+    /// per cluster, the writer's NORMAL (progressive_cluster_normals)
+    std::vector<std::vector<Float3>> cluster_normals;
+    bool reverse = false;  ///< triangles reversed (mirroring frame)
     double step = 0.0;
 };
 
@@ -320,6 +340,7 @@ StorageModel storage_model(const MultiresMesh& model, const SliceFrame& frame) {
             (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * sum[v] : Vec3{0, 0, 1};
         s.normals[v] = {detail::to_float(n.x), detail::to_float(n.y), detail::to_float(n.z)};
     }
+    s.cluster_normals = progressive_cluster_normals(model, s.points, s.reverse);
     return s;
 }
 
@@ -327,6 +348,7 @@ StorageModel storage_model(const MultiresMesh& model, const SliceFrame& frame) {
 /// indices, in the model's orientation (reversed here when the frame mirrors).
 struct Patch {
     std::vector<std::uint32_t> vertices;
+    std::vector<Float3> normals;        ///< per entry of `vertices`
     std::vector<std::uint32_t> coarse;  ///< empty: no _COARSE_POSITION
     std::vector<std::array<std::uint32_t, 3>> triangles;
 };
@@ -378,7 +400,7 @@ Encoded encode_patch(const StorageModel& s, const Patch& patch, Attributes attri
         const Float3& p = s.points[patch.vertices[i]];
         mesh.attribute(position)->SetAttributeValue(index, p.data());
         if (with_normal) {
-            mesh.attribute(normal)->SetAttributeValue(index, s.normals[patch.vertices[i]].data());
+            mesh.attribute(normal)->SetAttributeValue(index, patch.normals[i].data());
         }
         for (int k = 0; k < 3; ++k) {
             lo[k] = std::min(lo[k], double(p[k]));
@@ -447,12 +469,14 @@ Encoded encode_patch(const StorageModel& s, const Patch& patch, Attributes attri
     return out;
 }
 
-Patch cluster_patch(const MultiresCluster& cluster) {
-    return {cluster.vertices, cluster.coarse_vertices, cluster.triangles};
+Patch cluster_patch(const StorageModel& s, std::uint32_t c) {
+    const MultiresCluster& cluster = s.model->clusters[c];
+    return {cluster.vertices, s.cluster_normals[c], cluster.coarse_vertices, cluster.triangles};
 }
 
 /// The level-0 surface of a model as one patch (the full-resolution mesh: the level-0 cut).
-Patch full_patch(const MultiresMesh& model) {
+Patch full_patch(const StorageModel& s) {
+    const MultiresMesh& model = *s.model;
     const TriMesh full = cut_mesh(model, select_cut_at_level(model, 0));
     // cut_mesh keeps model positions; find each vertex's model id by position (distinct vertices
     // never share a grid point)
@@ -468,6 +492,7 @@ Patch full_patch(const MultiresMesh& model) {
             throw Error{ErrorCode::Internal, "level-0 cut has a position the model lacks"};
         }
         patch.vertices.push_back(it->second);
+        patch.normals.push_back(s.normals[it->second]);
     }
     patch.triangles = full.triangles;
     return patch;
@@ -611,7 +636,15 @@ struct OursBytes {
     std::vector<std::size_t> level_bytes;      ///< Draco chunk bytes per level
     std::vector<std::size_t> level_clusters;   ///< clusters per level (roots included)
     std::vector<std::size_t> level_triangles;  ///< triangles of every cluster of a level
+    /// Triangles of the uniform-error cuts (select_cut_by_error, all objects) at kCutErrorsPx:
+    /// what a viewer draws for a given error, so fewer levels must not cost triangles here.
+    std::vector<std::size_t> cut_triangles;
+    /// Chunk bytes a viewer has loaded once it shows those cuts: the consumed clusters of every
+    /// refined group (the base not counted).
+    std::vector<std::size_t> cut_bytes;
 };
+
+constexpr std::array<double, 5> kCutErrorsPx{1.0, 2.0, 4.0, 8.0, 16.0};
 
 /// Writes the progressive .glb of `models` (as `strata build` does) and reads its bytes back.
 OursBytes write_ours(const std::filesystem::path& path,
@@ -653,15 +686,18 @@ OursBytes write_ours(const std::filesystem::path& path,
     out.json = json_length;
     const Json json = Json::parse(bytes.substr(20, json_length));
     std::size_t chunk_sum = 0;
+    std::vector<std::vector<std::size_t>> cluster_bytes;  // per object, per cluster
     for (const Json& node : json["nodes"]) {
         if (!node.contains("extensions")) {
             continue;
         }
         const Json& ext = node["extensions"]["STRATA_progressive_mesh"];
+        cluster_bytes.emplace_back();
         for (const Json& cluster : ext["clusters"]) {
             ++out.clusters;
             const std::uint32_t level = cluster["level"].get<std::uint32_t>();
             out.levels = std::max(out.levels, level + 1);
+            cluster_bytes.back().push_back(0);
             if (cluster["mesh"] == node["mesh"]) {
                 continue;
             }
@@ -671,6 +707,7 @@ OursBytes write_ours(const std::filesystem::path& path,
                 primitive["extensions"]["KHR_draco_mesh_compression"]["bufferView"];
             const std::size_t length = json["bufferViews"][view]["byteLength"];
             chunk_sum += length;
+            cluster_bytes.back().back() = length;
             if (out.level_bytes.size() <= level) {
                 out.level_bytes.resize(level + 1);
             }
@@ -698,6 +735,27 @@ OursBytes write_ours(const std::filesystem::path& path,
         }
     }
     out.level_bytes.resize(out.level_clusters.size());
+    out.cut_triangles.assign(kCutErrorsPx.size(), 0);
+    out.cut_bytes.assign(kCutErrorsPx.size(), 0);
+    if (cluster_bytes.size() != models.size()) {
+        throw Error{ErrorCode::Internal, "objects in the file's JSON differ from the models"};
+    }
+    for (std::size_t e = 0; e < kCutErrorsPx.size(); ++e) {
+        for (std::size_t i = 0; i < models.size(); ++i) {
+            for (const MultiresGroup& g : models[i]->groups) {
+                if (g.error_px > kCutErrorsPx[e]) {
+                    for (const std::uint32_t c : g.consumed) {
+                        out.cut_bytes[e] += cluster_bytes[i].at(c);
+                    }
+                }
+            }
+        }
+        for (const MultiresMesh* m : models) {
+            for (const std::uint32_t cluster : select_cut_by_error(*m, kCutErrorsPx[e]).clusters) {
+                out.cut_triangles[e] += m->clusters[cluster].triangles.size();
+            }
+        }
+    }
     return out;
 }
 
@@ -879,6 +937,11 @@ void print_main(const std::vector<MainRow>& rows) {
             out << (l == 0 ? " " : ", ") << l << ": " << r.ours.level_triangles[l] << " / "
                 << r.ours.level_clusters[l] << " / " << kb(r.ours.level_bytes[l]);
         }
+        out << '\n' << "  " << pad("", 22) << " uniform-error cuts, triangles at";
+        for (std::size_t e = 0; e < kCutErrorsPx.size(); ++e) {
+            out << (e == 0 ? " " : ", ") << kCutErrorsPx[e] << " px: " << r.ours.cut_triangles[e]
+                << " (" << kb(r.ours.cut_bytes[e]) << " kB)";
+        }
         out << '\n';
     }
     std::cout << out.str();
@@ -999,7 +1062,7 @@ void single_rate_draco(const Case& c,
     std::vector<std::array<double, 3>> colours;
     pn = p = 0;
     for (std::size_t i = 0; i < storage.size(); ++i) {
-        const Patch full = full_patch(*storage[i].model);
+        const Patch full = full_patch(storage[i]);
         Encoded e = encode_patch(storage[i], full, Attributes::PositionNormal);
         pn += e.bytes.size();
         p += encode_patch(storage[i], full, Attributes::Position).bytes.size();
@@ -1027,10 +1090,10 @@ void single_rate_draco(const Case& c,
 std::size_t level0_clustered_pn(const std::vector<StorageModel>& storage) {
     std::size_t bytes = 0;
     for (const StorageModel& s : storage) {
-        for (const MultiresCluster& cluster : s.model->clusters) {
-            if (cluster.level == 0) {
-                bytes += encode_patch(s, cluster_patch(cluster), Attributes::PositionNormal)
-                             .bytes.size();
+        for (std::uint32_t c = 0; c < s.model->clusters.size(); ++c) {
+            if (s.model->clusters[c].level == 0) {
+                bytes +=
+                    encode_patch(s, cluster_patch(s, c), Attributes::PositionNormal).bytes.size();
             }
         }
     }
@@ -1061,6 +1124,7 @@ void run_case(const std::string& spec,
     std::cerr << "progressive_size: " << c.name << ": reconstructing\n";
     ReconstructOptions options;
     options.multires.cluster_triangles = args.cluster_triangles;
+    options.multires.keep_fraction = args.keep_fraction;
     Report report;
     auto start = Clock::now();
     Reconstruction result = reconstruct(c.stack, options, report);
@@ -1168,12 +1232,13 @@ void run_case(const std::string& spec,
         b.name = c.name;
         const std::vector<StorageModel> storage = storage_of(result.models);
         for (const StorageModel& s : storage) {
-            b.full_vertices += full_patch(*s.model).vertices.size();
-            for (const MultiresCluster& cluster : s.model->clusters) {
+            b.full_vertices += full_patch(s).vertices.size();
+            for (std::uint32_t c = 0; c < s.model->clusters.size(); ++c) {
+                const MultiresCluster& cluster = s.model->clusters[c];
                 if (cluster.level == 0) {
                     b.l0_cluster_vertices += cluster.vertices.size();
                 }
-                const Patch patch = cluster_patch(cluster);
+                const Patch patch = cluster_patch(s, c);
                 if (cluster.consumer < 0) {
                     // uncompressed: float positions and normals, 16/32-bit indices
                     b.base_binary +=
@@ -1212,6 +1277,8 @@ void run_case(const std::string& spec,
             const MultiresCluster& cluster = s.model->clusters.front();
             const auto& t = cluster.triangles.front();
             one.vertices = {cluster.vertices[t[0]], cluster.vertices[t[1]], cluster.vertices[t[2]]};
+            one.normals = {s.normals[one.vertices[0]], s.normals[one.vertices[1]],
+                           s.normals[one.vertices[2]]};
             one.coarse = one.vertices;
             one.triangles = {{0, 1, 2}};
             b.one_triangle_chunk = encode_patch(s, one, Attributes::All).bytes.size();

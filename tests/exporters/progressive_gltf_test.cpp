@@ -10,6 +10,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <set>
 #include <string>
 #include <vector>
@@ -204,6 +205,30 @@ SceneInfo info() {
     return info;
 }
 
+/// Per model vertex, the sum of the (storage-frame) normals of its triangles in the cut of
+/// `level`, computed here from the cut and the expected storage points (not by the writer).
+std::vector<Vec3> level_normal_sums(const Expect& e, std::uint32_t level) {
+    const MultiresMesh& model = *e.model;
+    std::vector<Vec3> sum(model.positions.size());
+    const auto at = [&](std::uint32_t v) {
+        return Vec3{e.storage[v][0], e.storage[v][1], e.storage[v][2]};
+    };
+    for (const std::uint32_t c : select_cut_at_level(model, level).clusters) {
+        const MultiresCluster& cluster = model.clusters[c];
+        for (const auto& t : cluster.triangles) {
+            const Vec3 a = at(cluster.vertices[t[0]]);
+            Vec3 n = cross(at(cluster.vertices[t[1]]) - a, at(cluster.vertices[t[2]]) - a);
+            if (e.flip < 0.0) {
+                n = -1.0 * n;  // the file's triangles are reversed
+            }
+            for (const std::uint32_t i : t) {
+                sum[cluster.vertices[i]] = sum[cluster.vertices[i]] + n;
+            }
+        }
+    }
+    return sum;
+}
+
 /// Everything the file says about the model, checked against it: the DAG, every base primitive
 /// and every Draco chunk (decoded here), spheres in the scene frame.
 void expect_file_holds_model(const fs::path& path, const Model& m, double flip) {
@@ -255,6 +280,7 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
         std::vector<std::array<float, 3>> positions;
         std::vector<std::uint32_t> indices;
         std::vector<std::array<float, 3>> coarse;
+        std::vector<std::array<float, 3>> normals;
         if (cluster.consumer < 0) {
             ASSERT_EQ(entry["mesh"], node["mesh"]) << "root cluster " << c << " not in the base";
             ASSERT_FALSE(primitive.contains("extensions"));
@@ -273,6 +299,7 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
             const auto n = accessor_values<float>(w, primitive["attributes"]["NORMAL"]);
             for (std::size_t i = 0; i + 2 < n.size(); i += 3) {
                 EXPECT_NEAR(std::hypot(n[i], n[i + 1], n[i + 2]), 1.0, 1e-5);
+                normals.push_back({n[i], n[i + 1], n[i + 2]});
             }
         } else {
             ++draco_chunks;
@@ -288,7 +315,8 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
                 mesh.GetAttributeByUniqueId(draco["attributes"]["POSITION"].get<int>());
             const auto* ca =
                 mesh.GetAttributeByUniqueId(draco["attributes"]["_COARSE_POSITION"].get<int>());
-            ASSERT_TRUE(pa != nullptr && ca != nullptr);
+            const auto* na = mesh.GetAttributeByUniqueId(draco["attributes"]["NORMAL"].get<int>());
+            ASSERT_TRUE(pa != nullptr && ca != nullptr && na != nullptr);
             const Json& pos_accessor =
                 json["accessors"][primitive["attributes"]["POSITION"].get<int>()];
             EXPECT_EQ(pos_accessor["count"].get<std::uint32_t>(), mesh.num_points());
@@ -299,6 +327,9 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
                 std::array<float, 3> p{}, q{};
                 pa->ConvertValue<float, 3>(pa->mapped_index(draco::PointIndex(i)), p.data());
                 ca->ConvertValue<float, 3>(ca->mapped_index(draco::PointIndex(i)), q.data());
+                std::array<float, 3> n{};
+                na->ConvertValue<float, 3>(na->mapped_index(draco::PointIndex(i)), n.data());
+                normals.push_back(n);
                 positions.push_back(p);
                 coarse.push_back(q);
             }
@@ -320,6 +351,17 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
                 ASSERT_TRUE(inside(ext["groups"][cluster.producer]["sphere"],
                                    transform_point(to_scene, positions[i])));
             }
+        }
+        // NORMAL: the vertex normal of the cluster's level cut (10-bit octahedral in the chunks)
+        ASSERT_EQ(normals.size(), positions.size());
+        const std::vector<Vec3> sums = level_normal_sums(e, cluster.level);
+        for (std::size_t i = 0; i < normals.size(); ++i) {
+            const Vec3 expected = sums[global[i]];
+            const Vec3 got{normals[i][0], normals[i][1], normals[i][2]};
+            const double cosine = dot(expected, got) / (norm(expected) * norm(got));
+            EXPECT_GT(cosine, std::cos(0.5 * std::numbers::pi / 180.0))
+                << "cluster " << c << " point " << i << ": NORMAL off the level-" << cluster.level
+                << " surface normal";
         }
         if (!coarse.empty()) {
             for (std::size_t i = 0; i < coarse.size(); ++i) {

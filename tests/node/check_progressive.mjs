@@ -849,18 +849,18 @@ class FileCheck {
                     this.fail('cut', `${where}: level ${level} cut (${drawn.length} clusters): ${problem}`);
                 }
             }
-            // NORMAL is the full-resolution surface's vertex normal: the same at a position in
-            // every cluster, up to Draco's quantization of the chunks' normals
+            // NORMAL is the vertex normal of the cluster's level: the same at a position in every
+            // cluster of one level, up to Draco's quantization of the chunks' normals
             const normals = new Map();
             let worst = { angle: 0 };
-            ext.clusters.forEach((_, ci) => {
+            ext.clusters.forEach((cluster, ci) => {
                 const { position, normal } = geometry[ci];
                 if (normal === null || normal.length !== position.length) {
                     this.fail('cut', `${where}: cluster ${ci} has no NORMAL for each vertex`);
                     return;
                 }
                 for (let i = 0; i < position.length / 3; ++i) {
-                    const key = positionKey(position, i);
+                    const key = `${cluster.level}:${positionKey(position, i)}`;
                     const n = [normal[3 * i], normal[3 * i + 1], normal[3 * i + 2]];
                     const first = normals.get(key);
                     if (first === undefined) {
