@@ -282,6 +282,8 @@ Chunk encode_chunk(const std::filesystem::path& path,
     encoder.SetSpeedOptions(speed, speed);
     encoder.SetAttributeExplicitQuantization(position, bits, 3, origin, range);
     encoder.SetAttributeExplicitQuantization(coarse, bits, 3, origin, range);
+    encoder.SetAttributePredictionScheme(position, detail::kDracoPositionPrediction);
+    encoder.SetAttributePredictionScheme(coarse, detail::kDracoPositionPrediction);
     encoder.SetAttributeQuantization(normal, options.normal_bits);
     draco::EncoderBuffer buffer;
     const draco::Status status = encoder.EncodeToBuffer(&buffer);

@@ -19,13 +19,14 @@
 // Peers, on the same full-resolution surface (the level-0 cut of each model: the same triangles
 // and grid positions as the level-0 clusters):
 //   Draco   single-rate: each object's level-0 mesh as one Draco mesh, encoded exactly as our
-//           chunks are (draco::ExpertEncoder, Edgebreaker, speed 10 - 7 = 3, POSITION with
-//           explicit quantization on the model's grid in the same storage frame: x, y px, z in
-//           slices; origin = the mesh's lowest grid point, range = step * (2^bits - 1), bits the
-//           fewest that span the mesh; NORMAL the area-weighted full-resolution normals (our level
-//           0s), 10-bit octahedral). Lossless on the grid, like ours. Reported: raw Draco bytes
-//           (POSITION + NORMAL, and POSITION only) and a minimal .glb wrapping the POSITION +
-//           NORMAL meshes (KHR_draco_mesh_compression; node matrices, one material per object).
+//           chunks are (draco::ExpertEncoder, Edgebreaker, speed 10 - 7 = 3, POSITION predicted
+//           by constrained multi-parallelogram with explicit quantization on the model's grid in
+//           the same storage frame: x, y px, z in slices; origin = the mesh's lowest grid point,
+//           range = step * (2^bits - 1), bits the fewest that span the mesh; NORMAL the
+//           area-weighted full-resolution normals (our level 0s), 10-bit octahedral). Lossless on
+//           the grid, like ours. Reported: raw Draco bytes (POSITION + NORMAL, and POSITION only)
+//           and a minimal .glb wrapping the POSITION + NORMAL meshes (KHR_draco_mesh_compression;
+//           node matrices, one material per object).
 //   gltfpack (npm `gltfpack`, meshoptimizer's packer as WASM) on WORK/scene.glb, the plain
 //           full-resolution scene `strata build` writes (exporters/scene_gltf.h: float LPS mm,
 //           float normals, 32/16-bit indices): `-cc` (meshopt compression, higher ratio; default
@@ -374,7 +375,8 @@ int bits_for(double extent_steps) {
 
 /// Draco bytes of `patch` with `attributes`, with the writer's settings (encode_chunk):
 /// Edgebreaker, compression level 7, positions (and coarse positions) on the grid with origin
-/// and range multiples of the step over the bounds of the encoded positions, 10-bit normals.
+/// and range multiples of the step over the bounds of the encoded positions, predicted by
+/// constrained multi-parallelogram (kDracoPositionPrediction), 10-bit normals.
 Encoded encode_patch(const StorageModel& s, const Patch& patch, Attributes attributes) {
     const ProgressiveOptions options;
     const std::size_t n = patch.vertices.size();
@@ -442,8 +444,10 @@ Encoded encode_patch(const StorageModel& s, const Patch& patch, Attributes attri
     const int speed = 10 - std::clamp(options.compression_level, 0, 10);
     encoder.SetSpeedOptions(speed, speed);
     encoder.SetAttributeExplicitQuantization(position, bits, 3, origin, range);
+    encoder.SetAttributePredictionScheme(position, detail::kDracoPositionPrediction);
     if (with_coarse) {
         encoder.SetAttributeExplicitQuantization(coarse, bits, 3, origin, range);
+        encoder.SetAttributePredictionScheme(coarse, detail::kDracoPositionPrediction);
     }
     if (with_offset) {
         const int offset_bits = bits_for((offset_hi - offset_lo) / s.step);
