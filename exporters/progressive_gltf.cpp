@@ -504,8 +504,7 @@ Json draco_primitive(
         json, {{"componentType", chunk.points <= kMaxShortVertices ? kUnsignedShort : kUnsignedInt},
                {"count", 3 * std::size_t{chunk.faces}},
                {"type", "SCALAR"}});
-    primitive["material"] = material;
-    primitive["mode"] = 4;
+    primitive["material"] = material;  // mode: TRIANGLES, the default, left out (JSON bytes)
     primitive["extensions"][kDraco] = {{"bufferView", view},
                                        {"attributes",
                                         {{"POSITION", chunk.position_id},
@@ -700,9 +699,9 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
             } else {
                 const Chunk& chunk = chunks[next_chunk++];
                 entry["mesh"] = json["meshes"].size();
+                // unnamed: the extension's cluster entry names it (JSON bytes)
                 json["meshes"].push_back(
-                    {{"name", name + " cluster " + std::to_string(c)},
-                     {"primitives", Json::array({draco_primitive(json, buffers, 1 + cluster.level,
+                    {{"primitives", Json::array({draco_primitive(json, buffers, 1 + cluster.level,
                                                                  chunk, material)})}});
                 stats.chunk_bytes += chunk.bytes.size();
                 ++stats.chunks;
