@@ -10,6 +10,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -132,17 +134,61 @@ StorageFrame storage_frame(const std::filesystem::path& path, const SliceFrame& 
     return s;
 }
 
-/// Json [x, y, z, r] of a slice-space sphere in the scene frame (metres), rounded outwards.
-Json scene_sphere(const StorageFrame& s, const Sphere& sphere) {
-    const Vec3 c = sphere.center;
-    Json out = Json::array();
-    for (int r = 0; r < 3; ++r) {
-        out.push_back(s.scene_origin[r] + s.to_scene[3 * r] * c.x + s.to_scene[3 * r + 1] * c.y +
-                      s.to_scene[3 * r + 2] * c.z);
+/// The double a JSON reader parses from `x` printed with `decimals` decimals (nlohmann prints it
+/// back as that short decimal). Keeps the JSON small: spheres need micrometres, not 17 digits.
+double short_decimal(double x, int decimals) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%.*f", decimals, x);
+    return std::strtod(text, nullptr);
+}
+
+/// The smallest 7-significant-digit decimal (as parsed) >= x: for bounds, which may only grow.
+double short_bound(double x) {
+    char text[64];
+    for (double up = x;;
+         up = std::nextafter(up + std::abs(up) * 1e-7, std::numeric_limits<double>::infinity())) {
+        std::snprintf(text, sizeof text, "%.7g", up);
+        const double r = std::strtod(text, nullptr);
+        if (r >= x || !std::isfinite(r)) {
+            return r >= x ? r : x;
+        }
     }
-    const double centre_size = std::abs(out[0].get<double>()) + std::abs(out[1].get<double>()) +
-                               std::abs(out[2].get<double>());
-    out.push_back(sphere.radius * s.scene_scale + 1e-12 * (1.0 + centre_size));
+}
+
+constexpr int kSphereDecimals = 6;  ///< metres: 1 micrometre, 1/50 of a 0.05 mm grid step
+
+/// A sphere in the scene frame (metres) as written: centre at kSphereDecimals decimals, radius
+/// rounded up so that it still contains the exact sphere and every sphere in `inside` (already
+/// written ones: nesting survives the rounding).
+struct SceneSphere {
+    std::array<double, 4> v{};  ///< x, y, z, r as parsed back from the JSON
+    Json json() const { return Json::array({v[0], v[1], v[2], v[3]}); }
+};
+
+SceneSphere scene_sphere(const StorageFrame& s,
+                         const Sphere& sphere,
+                         const std::vector<const SceneSphere*>& inside = {}) {
+    const Vec3 c = sphere.center;
+    std::array<double, 3> exact{};
+    SceneSphere out;
+    for (int r = 0; r < 3; ++r) {
+        exact[r] = s.scene_origin[r] + s.to_scene[3 * r] * c.x + s.to_scene[3 * r + 1] * c.y +
+                   s.to_scene[3 * r + 2] * c.z;
+        out.v[r] = short_decimal(exact[r], kSphereDecimals);
+    }
+    const auto distance = [&](const std::array<double, 4>& to) {
+        return std::hypot(out.v[0] - to[0], out.v[1] - to[1], out.v[2] - to[2]);
+    };
+    double radius = sphere.radius * s.scene_scale + distance({exact[0], exact[1], exact[2], 0.0});
+    for (const SceneSphere* other : inside) {
+        radius = std::max(radius, distance(other->v) + other->v[3]);
+    }
+    radius += 1e-12 * (1.0 + std::abs(out.v[0]) + std::abs(out.v[1]) + std::abs(out.v[2]));
+    const double step = std::pow(10.0, -kSphereDecimals);
+    out.v[3] = short_decimal(std::ceil(radius / step) * step, kSphereDecimals);
+    while (out.v[3] < radius) {
+        out.v[3] = short_decimal(out.v[3] + step, kSphereDecimals);
+    }
     return out;
 }
 
@@ -688,6 +734,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
         const int base_mesh = static_cast<int>(json["meshes"].size());
         json["meshes"].push_back(Json());  // placeholder, filled after the chunks
         std::size_t next_chunk = 0;
+        std::vector<SceneSphere> cluster_spheres(model.clusters.size());
         for (std::uint32_t c = 0; c < model.clusters.size(); ++c) {
             const MultiresCluster& cluster = model.clusters[c];
             Json entry;
@@ -713,16 +760,33 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
             if (cluster.consumer >= 0) {
                 entry["consumer"] = cluster.consumer;
             }
-            entry["sphere"] = scene_sphere(storage, cluster.bounds);
+            cluster_spheres[c] = scene_sphere(storage, cluster.bounds);
+            entry["sphere"] = cluster_spheres[c].json();
             clusters.push_back(std::move(entry));
         }
         json["meshes"][base_mesh] = std::move(base);
 
+        // groups come after the groups below them: their written spheres nest in the written
+        // spheres of their clusters and of the groups below
         Json groups = Json::array();
-        for (const MultiresGroup& group : model.groups) {
+        std::vector<SceneSphere> group_spheres(model.groups.size());
+        for (std::size_t g = 0; g < model.groups.size(); ++g) {
+            const MultiresGroup& group = model.groups[g];
+            std::vector<const SceneSphere*> inside;
+            for (const std::uint32_t c : group.produced) {
+                inside.push_back(&cluster_spheres[c]);
+            }
+            for (const std::uint32_t c : group.consumed) {
+                inside.push_back(&cluster_spheres[c]);
+                const std::int32_t below = model.clusters[c].producer;
+                if (below >= 0) {
+                    inside.push_back(&group_spheres[std::size_t(below)]);
+                }
+            }
+            group_spheres[g] = scene_sphere(storage, group.bounds, inside);
             groups.push_back({{"level", group.level},
-                              {"error", group.error_px * storage.error_m_per_px},
-                              {"sphere", scene_sphere(storage, group.bounds)},
+                              {"error", short_bound(group.error_px * storage.error_m_per_px)},
+                              {"sphere", group_spheres[g].json()},
                               {"consumed", group.consumed},
                               {"produced", group.produced}});
         }
@@ -733,7 +797,8 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
         node["extensions"][kExtension] = {
             {"clusters", std::move(clusters)},
             {"groups", std::move(groups)},
-            {"fullResolutionError", model.full_resolution_error_px * storage.error_m_per_px},
+            {"fullResolutionError",
+             short_bound(model.full_resolution_error_px * storage.error_m_per_px)},
             {"gridStep", step}};
         node["extras"] = {{"label", object.label},
                           {"source", info.source},
