@@ -9,20 +9,30 @@
 //   curvature is their lower envelope, built left to right in linear time.
 // - C. R. Maurer, R. Qi, V. Raghavan, "A linear time algorithm for computing exact Euclidean
 //   distance transforms of binary images in arbitrary dimensions", IEEE PAMI 25(2), 2003 (the same
-//   separable scheme with feature tracking).
+//   separable scheme with feature tracking; its test for removing the middle of three parabolas
+//   needs no division).
 //
 // Everything runs in doubled integer coordinates (node (X, Y) is at (X / 2, Y / 2) px from the
 // window origin), so squared distances are exact integers and the tie rule (smallest site index
-// among the nearest sites) is decided exactly: the column pass keeps, per node, the nearest site
-// of its column with that rule; the row pass orders parabolas by (value, site index), under which
-// "the later parabola wins" is still a right half-line of x, which is all the envelope needs.
+// among the nearest sites) is decided exactly. One sweep over the rows does both passes: per
+// column it follows the nearest site above and below (the sites bucketed by row), so each node's
+// nearest site in its column, with that rule, is known when its row is reached; the row's
+// envelope then orders parabolas by (value, site index), i.e. takes the site index as an
+// infinitesimal added to the heights, under which no two parabolas are equal at an integer x and
+// Maurer's removal test stays exact. The result is written once, and each square is rooted in
+// float where that is exact (distances up to 2048 px).
 #include "distance/distance_field.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <mutex>
 #include <string>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "core/error.h"
 #include "core/parallel.h"
@@ -92,16 +102,28 @@ std::vector<PixelBox> label_boxes(const SliceStack& stack,
     return boxes;
 }
 
-/// Per-thread buffers, reused from call to call (no allocation per node, few per field).
+/// Per-thread buffers, reused from call to call (no allocation per node, few per field; apart from
+/// the mask, all are per site, per row or per column).
 struct Scratch {
     std::vector<std::uint8_t> mask;          // window pixels + 1 background pixel of padding
-    std::vector<std::int8_t> side;           // per node: -1 inside, +1 outside, 0 on a contour
-    std::vector<std::int32_t> column_row;    // column pass: row of the last / next site
-    std::vector<std::uint32_t> column_site;  // column pass: that site
-    std::vector<std::int32_t> apex;          // row envelope: column x' of each parabola
-    std::vector<std::int64_t> height;        // row envelope: f(x'), squared column distance
+    std::vector<std::int8_t> side;           // one row: -1 inside, +1 outside, 0 on a contour
+    std::vector<std::int32_t> site_x;        // per site: its node (X, Y)
+    std::vector<std::int32_t> site_y;        //
+    std::vector<std::uint32_t> row_begin;    // sites by row: row Y's are row_site[row_begin[Y]..]
+    std::vector<std::uint32_t> row_site;     //
+    std::vector<std::int32_t> next_row;      // per row_site entry: the next site below in its
+    std::vector<std::uint32_t> next_site;    // column (row >= kFar: none)
+    std::vector<std::int32_t> above_row;     // per column: nearest site at or above the row
+    std::vector<std::uint32_t> above_site;   //
+    std::vector<std::int32_t> below_row;     // per column: nearest site at or below the row
+    std::vector<std::uint32_t> below_site;   //
+    std::vector<std::int32_t> column_dy;     // one row: distance to the column's nearest site
+    std::vector<std::uint32_t> column_site;  // one row: that site
+    std::vector<std::int32_t> apex;          // row envelope: column X' of each parabola
+    std::vector<std::int64_t> height;        // row envelope: f(X'), squared column distance
+    std::vector<std::int64_t> offset;        // row envelope: f(X') + X'^2
     std::vector<std::uint32_t> site;         // row envelope: the site of that column
-    std::vector<std::int32_t> start;         // row envelope: first x the parabola owns
+    std::vector<std::int64_t> start;         // row envelope: first x the parabola owns
 };
 
 Scratch& thread_scratch() {
@@ -189,20 +211,155 @@ void classify_row(const std::uint8_t* mask,
 
 /// First integer x at which parabola (apex b, height fb, site sb) beats (apex a < b, fa, sa)
 /// under the order (value, site index): x 2 (b - a) > num = (fb + b^2) - (fa + a^2), or equal
-/// and sb < sa. The difference of the parabolas falls linearly in x, so it keeps winning after.
-std::int64_t first_win(std::int64_t a,
-                       std::int64_t fa,
-                       std::uint32_t sa,
-                       std::int64_t b,
-                       std::int64_t fb,
-                       std::uint32_t sb) {
-    const std::int64_t num = (fb + b * b) - (fa + a * a);
-    const std::int64_t den = 2 * (b - a);
+/// and sb < sa (`later_site_wins`). The difference of the parabolas falls linearly in x, so it
+/// keeps winning after. `den` = 2 (b - a).
+std::int64_t first_win(std::int64_t num, std::int64_t den, bool later_site_wins) {
     // note: |num| < 2^51, so the double quotient truncated is within one of the floor
     std::int64_t q = static_cast<std::int64_t>(static_cast<double>(num) / static_cast<double>(den));
     q -= q * den > num ? 1 : 0;
     q += (q + 1) * den <= num ? 1 : 0;
-    return q + 1 - static_cast<std::int64_t>((q * den == num) & (sb < sa));
+    return q + 1 - static_cast<std::int64_t>((q * den == num) & later_site_wins);
+}
+
+/// Sign of n1 / d1 - n2 / d2 for d1, d2 > 0, exact: by products when `small` (|n| < 2^41,
+/// d < 2^21), else by floor quotients and remainders (|n| < 2^62, d < 2^31).
+int compare_fractions(
+    std::int64_t n1, std::int64_t d1, std::int64_t n2, std::int64_t d2, bool small) {
+    if (small) {
+        const std::int64_t lhs = n1 * d2;
+        const std::int64_t rhs = n2 * d1;
+        return (lhs > rhs) - (lhs < rhs);
+    }
+    auto floor_div = [](std::int64_t n, std::int64_t d) {
+        const std::int64_t q = n / d;
+        return q - static_cast<std::int64_t>((n % d != 0) & (n < 0));
+    };
+    const std::int64_t q1 = floor_div(n1, d1);
+    const std::int64_t q2 = floor_div(n2, d2);
+    if (q1 != q2) {
+        return q1 > q2 ? 1 : -1;
+    }
+    const std::int64_t lhs = (n1 - q1 * d1) * d2;
+    const std::int64_t rhs = (n2 - q2 * d2) * d1;
+    return (lhs > rhs) - (lhs < rhs);
+}
+
+/// Whether the middle of three parabolas with apexes a1 < a2 < a3 (g = f + a^2, site s) is
+/// nowhere alone at the bottom under the order (value, site index): taking the site index as an
+/// infinitesimal added to the heights, every two parabolas meet at one point and none are equal
+/// at an integer x, and the middle one is hidden when it meets the first at or after it meets
+/// the third (Maurer, Qi, Raghavan's removal test, exact in integers).
+bool is_hidden(std::int64_t a1,
+               std::int64_t g1,
+               std::uint32_t s1,
+               std::int64_t a2,
+               std::int64_t g2,
+               std::uint32_t s2,
+               std::int64_t a3,
+               std::int64_t g3,
+               std::uint32_t s3,
+               bool small) {
+    const std::int64_t d12 = a2 - a1;
+    const std::int64_t d23 = a3 - a2;
+    const int order = compare_fractions(g2 - g1, d12, g3 - g2, d23, small);
+    if (order != 0) {
+        return order > 0;
+    }
+    const std::int64_t e12 = static_cast<std::int64_t>(s2) - static_cast<std::int64_t>(s1);
+    const std::int64_t e23 = static_cast<std::int64_t>(s3) - static_cast<std::int64_t>(s2);
+    return e12 * d23 >= e23 * d12;  // note: |e| < 2^30, d < 2^24
+}
+
+/// The row's lower envelope, as a stack of parabolas.
+struct Envelope {
+    std::int32_t* apex;    ///< column X' of each parabola, increasing
+    std::int64_t* height;  ///< f(X'), squared column distance
+    std::int64_t* offset;  ///< f(X') + X'^2
+    std::uint32_t* site;   ///< the site of that column
+};
+
+/// Builds the lower envelope of the parabolas f(X') + (x - X')^2 (f = column_dy^2, site
+/// column_site) of the columns X' < nx with a site (column_dy < far), left to right, dropping
+/// every parabola that is nowhere alone at the bottom under the order (value, site index);
+/// returns their number. `kSmall`: at most 2^20 nodes per side (64-bit products suffice).
+template <bool kSmall>
+std::int64_t lower_envelope(const std::int32_t* column_dy,
+                            const std::uint32_t* column_site,
+                            std::int64_t nx,
+                            std::int32_t far,
+                            const Envelope& out) {
+    std::int64_t count = 0;
+    // note: the top two parabolas are kept in registers, out of the loop's memory dependencies
+    std::int64_t a1 = 0;
+    std::int64_t g1 = 0;
+    std::uint32_t s1 = 0;
+    std::int64_t a2 = 0;
+    std::int64_t g2 = 0;
+    std::uint32_t s2 = 0;
+    for (std::int64_t X = 0; X < nx; ++X) {
+        const std::int64_t dy = column_dy[X];
+        if (dy >= far) {
+            continue;  // no site in this column
+        }
+        const std::int64_t f = dy * dy;
+        if (X > 0 && X + 1 < nx) {
+            // note: beaten everywhere by its neighbour columns' parabolas (strictly, so whatever
+            // the sites) when 2 f > f_left + f_right + 2
+            const std::int64_t left = column_dy[X - 1];
+            const std::int64_t right = column_dy[X + 1];
+            if (left < far && right < far && 2 * f > left * left + right * right + 2) {
+                continue;
+            }
+        }
+        const std::int64_t g = f + X * X;
+        const std::uint32_t s = column_site[X];
+        while (count >= 2 && is_hidden(a1, g1, s1, a2, g2, s2, X, g, s, kSmall)) {
+            --count;
+            a2 = a1;
+            g2 = g1;
+            s2 = s1;
+            if (count >= 2) {
+                a1 = out.apex[count - 2];
+                g1 = out.offset[count - 2];
+                s1 = out.site[count - 2];
+            }
+        }
+        out.apex[count] = static_cast<std::int32_t>(X);
+        out.height[count] = f;
+        out.offset[count] = g;
+        out.site[count] = s;
+        ++count;
+        a1 = a2;
+        g1 = g2;
+        s1 = s2;
+        a2 = X;
+        g2 = g;
+        s2 = s;
+    }
+    return count;
+}
+
+/// d[X] = sqrt(d[X]) / 2, negated where side[X] < 0, for X in [0, n); d[X] >= 0.
+void finish_row(float* d, const std::int8_t* side, std::int64_t n) {
+    std::int64_t X = 0;
+#if defined(__SSE2__)
+    // note: intrinsics, as std::sqrt does not vectorize while it may set errno
+    const __m128 half = _mm_set1_ps(0.5f);
+    for (; X + 4 <= n; X += 4) {
+        const __m128 r = _mm_mul_ps(half, _mm_sqrt_ps(_mm_loadu_ps(d + X)));
+        std::int32_t four = 0;
+        std::memcpy(&four, side + X, 4);
+        const __m128i s8 = _mm_cvtsi32_si128(four);
+        const __m128i s16 = _mm_unpacklo_epi8(s8, s8);
+        const __m128i s32 = _mm_unpacklo_epi16(s16, s16);  // each side in the top byte
+        const __m128i sign = _mm_slli_epi32(_mm_srli_epi32(s32, 31), 31);
+        _mm_storeu_ps(d + X, _mm_or_ps(r, _mm_castsi128_ps(sign)));
+    }
+#endif
+    for (; X < n; ++X) {
+        const float r = 0.5f * std::sqrt(d[X]);
+        d[X] = side[X] < 0 ? -r : r;
+    }
 }
 
 /// The field of `label` on slice k over `window` (pixel box of the label on slices k-1..k+1)
@@ -242,6 +399,9 @@ DistanceField field_in_window(const SliceStack& stack,
     field.distance_px.resize(nodes);
     std::uint32_t* closest = field.closest.data();
     float* distance = field.distance_px.data();
+    Scratch& scratch = thread_scratch();
+    scratch.site_x.clear();
+    scratch.site_y.clear();
 
     // ---- sites: contour points and unit-segment midpoints, marked in `closest`
     auto node_of = [&](Vec2 p, std::size_t c, std::size_t i, std::int64_t& X, std::int64_t& Y) {
@@ -268,6 +428,8 @@ DistanceField field_in_window(const SliceStack& stack,
         }
         slot = static_cast<std::uint32_t>(field.sites.size());
         field.sites.push_back(site);
+        scratch.site_x.push_back(static_cast<std::int32_t>(X));
+        scratch.site_y.push_back(static_cast<std::int32_t>(Y));
     };
     for (std::size_t c = 0; c < set.contours.size(); ++c) {
         const Contour& contour = set.contours[c];
@@ -308,10 +470,8 @@ DistanceField field_in_window(const SliceStack& stack,
                     where(k, label) + ": the label is absent from the slice (no contour)");
     }
 
-    Scratch& scratch = thread_scratch();
-
     // ---- window mask, one pixel of background padding (pixels outside the image are
-    // background), then the side of every node
+    // background); the side of every node is classified row by row below
     const std::size_t mask_width = static_cast<std::size_t>(pw + 2);
     scratch.mask.assign(mask_width * static_cast<std::size_t>(ph + 2), 0);
     {
@@ -330,12 +490,8 @@ DistanceField field_in_window(const SliceStack& stack,
         }
     }
     const std::size_t width = static_cast<std::size_t>(nx);
-    scratch.side.resize(nodes);
+    scratch.side.resize(width);
     std::int8_t* side = scratch.side.data();
-    for (std::int64_t Y = 0; Y < ny; ++Y) {
-        classify_row(scratch.mask.data(), mask_width, Y, nx,
-                     side + static_cast<std::size_t>(Y) * width);
-    }
     auto mismatch = [&](std::int64_t Y, std::int64_t X, bool is_site) {
         return Error(ErrorCode::InvalidInput,
                      where(k, label) + ": the contours do not match the label image at (" +
@@ -345,116 +501,163 @@ DistanceField field_in_window(const SliceStack& stack,
                                   : "a boundary between pixels on no contour"));
     };
 
-    // ---- column pass: per node the nearest site of its column, ties to the smaller site index:
-    // its distance in `distance` (an exact small integer, or >= kFar: none) and site in `closest`
+    // ---- sites by row (counting sort), and for each the next site below in its column
     constexpr std::int32_t kFar = std::int32_t(1) << 24;  // beyond any distance in the window
-    scratch.column_row.assign(width, -2 * kFar);
-    scratch.column_site.assign(width, kNoSite);
-    std::int32_t* row_of = scratch.column_row.data();
-    std::uint32_t* site_of = scratch.column_site.data();
-    for (std::int64_t Y = 0; Y < ny; ++Y) {
-        std::uint32_t* c = closest + static_cast<std::size_t>(Y) * width;
-        float* d = distance + static_cast<std::size_t>(Y) * width;
-        const std::int8_t* sd = side + static_cast<std::size_t>(Y) * width;
-        const std::int32_t y = static_cast<std::int32_t>(Y);
-        std::uint32_t bad = 0;
-        for (std::size_t X = 0; X < width; ++X) {
-            const std::uint32_t s = c[X];
-            const std::uint32_t is_site = all_if(s != kNoSite);
-            bad |= is_site ^ all_if(sd[X] == 0);
-            const std::int32_t r = pick(is_site, y, row_of[X]);
-            const std::uint32_t nearest = pick(is_site, s, site_of[X]);
-            row_of[X] = r;
-            site_of[X] = nearest;
-            c[X] = nearest;
-            d[X] = static_cast<float>(y - r);
-        }
-        if (bad) {
-            for (std::size_t X = 0;; ++X) {
-                if ((d[X] == 0.0f) != (sd[X] == 0)) {
-                    throw mismatch(Y, static_cast<std::int64_t>(X), d[X] == 0.0f);
-                }
-            }
-        }
+    const std::size_t site_count = field.sites.size();
+    const std::int32_t* site_x = scratch.site_x.data();
+    const std::int32_t* site_y = scratch.site_y.data();
+    scratch.row_begin.assign(static_cast<std::size_t>(ny) + 1, 0);
+    std::uint32_t* row_begin = scratch.row_begin.data();
+    for (std::size_t s = 0; s < site_count; ++s) {
+        ++row_begin[site_y[s] + 1];
     }
-    std::fill(row_of, row_of + width, 2 * kFar);
-    std::fill(site_of, site_of + width, kNoSite);
+    for (std::int64_t Y = 0; Y < ny; ++Y) {
+        row_begin[Y + 1] += row_begin[Y];
+    }
+    scratch.row_site.resize(site_count);
+    std::uint32_t* row_site = scratch.row_site.data();
+    for (std::size_t s = 0; s < site_count; ++s) {
+        row_site[row_begin[site_y[s]]++] = static_cast<std::uint32_t>(s);
+    }
+    for (std::int64_t Y = ny; Y > 0; --Y) {
+        row_begin[Y] = row_begin[Y - 1];  // note: the placing loop moved each begin to its end
+    }
+    row_begin[0] = 0;
+    scratch.above_row.assign(width, -2 * kFar);
+    scratch.above_site.assign(width, kNoSite);
+    scratch.below_row.assign(width, 2 * kFar);
+    scratch.below_site.assign(width, kNoSite);
+    std::int32_t* above_row = scratch.above_row.data();
+    std::uint32_t* above_site = scratch.above_site.data();
+    std::int32_t* below_row = scratch.below_row.data();
+    std::uint32_t* below_site = scratch.below_site.data();
+    scratch.next_row.resize(site_count);
+    scratch.next_site.resize(site_count);
+    std::int32_t* next_row = scratch.next_row.data();
+    std::uint32_t* next_site = scratch.next_site.data();
     for (std::int64_t Y = ny - 1; Y >= 0; --Y) {
-        std::uint32_t* c = closest + static_cast<std::size_t>(Y) * width;
-        float* d = distance + static_cast<std::size_t>(Y) * width;
-        const std::int32_t y = static_cast<std::int32_t>(Y);
-        for (std::size_t X = 0; X < width; ++X) {
-            const float above = d[X];
-            const std::uint32_t above_site = c[X];
-            const std::uint32_t is_site = all_if(above == 0.0f);
-            const std::int32_t r = pick(is_site, y, row_of[X]);
-            const std::uint32_t below_site = pick(is_site, above_site, site_of[X]);
-            row_of[X] = r;
-            site_of[X] = below_site;
-            const float below = static_cast<float>(r - y);
-            const std::uint32_t take =
-                all_if((below < above) | ((below == above) & (below_site < above_site)));
-            d[X] = take ? below : above;
-            c[X] = pick(take, below_site, above_site);
+        for (std::uint32_t e = row_begin[Y]; e < row_begin[Y + 1]; ++e) {
+            const std::uint32_t s = row_site[e];
+            const std::int32_t X = site_x[s];
+            next_row[e] = below_row[X];
+            next_site[e] = below_site[X];
+            below_row[X] = static_cast<std::int32_t>(Y);
+            below_site[X] = s;
         }
     }
 
-    // ---- row pass: lower envelope of the columns' parabolas, signed by the node's side
+    // ---- per row: the nearest site of each column (ties to the smaller site index), then the
+    // lower envelope of the columns' parabolas, signed by the node's side
+    scratch.column_dy.resize(width);
+    scratch.column_site.resize(width);
     scratch.apex.resize(width);
     scratch.height.resize(width);
+    scratch.offset.resize(width);
     scratch.site.resize(width);
-    scratch.start.resize(width);
+    scratch.start.resize(width + 1);
+    std::int32_t* column_dy = scratch.column_dy.data();
+    std::uint32_t* column_site = scratch.column_site.data();
     std::int32_t* apex = scratch.apex.data();
     std::int64_t* height = scratch.height.data();
+    std::int64_t* offset = scratch.offset.data();
     std::uint32_t* site = scratch.site.data();
-    std::int32_t* start = scratch.start.data();
+    std::int64_t* start = scratch.start.data();
+    const Envelope envelope{apex, height, offset, site};
+    // note: with at most 2^20 nodes per side the envelope's products fit in 64 bits
+    const bool small = nx <= (std::int64_t(1) << 20) && ny <= (std::int64_t(1) << 20);
+    constexpr std::int64_t kExactFloat = std::int64_t(1) << 24;  // squares up to here: float path
     for (std::int64_t Y = 0; Y < ny; ++Y) {
         std::uint32_t* c = closest + static_cast<std::size_t>(Y) * width;
         float* d = distance + static_cast<std::size_t>(Y) * width;
-        const std::int8_t* sd = side + static_cast<std::size_t>(Y) * width;
-        std::int64_t count = 0;
-        for (std::int64_t X = 0; X < nx; ++X) {
-            if (d[X] >= static_cast<float>(kFar)) {
-                continue;  // no site in this column
-            }
-            const std::int64_t dy = static_cast<std::int64_t>(d[X]);
-            const std::int64_t f = dy * dy;
-            const std::uint32_t s = c[X];
-            // drop parabolas the new one beats wherever they would own
-            while (count > 0) {
-                const std::int64_t z = start[count - 1];
-                const std::int64_t a = apex[count - 1];
-                const std::int64_t diff =
-                    (f + (z - X) * (z - X)) - (height[count - 1] + (z - a) * (z - a));
-                if (diff < 0 || (diff == 0 && s < site[count - 1])) {
-                    --count;
-                } else {
-                    break;
+        const std::int32_t y = static_cast<std::int32_t>(Y);
+
+        // the sites of this row (marked in `closest`) must be exactly its boundary nodes
+        classify_row(scratch.mask.data(), mask_width, Y, nx, side);
+        std::uint32_t bad = 0;
+        for (std::size_t X = 0; X < width; ++X) {
+            bad |= all_if(c[X] != kNoSite) ^ all_if(side[X] == 0);
+        }
+        if (bad) {
+            for (std::size_t X = 0;; ++X) {
+                if ((c[X] != kNoSite) != (side[X] == 0)) {
+                    throw mismatch(Y, static_cast<std::int64_t>(X), c[X] != kNoSite);
                 }
             }
-            std::int64_t from = 0;
-            if (count > 0) {
-                from = first_win(apex[count - 1], height[count - 1], site[count - 1], X, f, s);
-                if (from >= nx) {
-                    continue;  // note: never wins inside the window
-                }
+        }
+
+        const std::uint32_t row_sites_begin = row_begin[Y];
+        const std::uint32_t row_sites_end = row_begin[Y + 1];
+        for (std::uint32_t e = row_sites_begin; e < row_sites_end; ++e) {
+            const std::uint32_t s = row_site[e];
+            const std::int32_t X = site_x[s];
+            above_row[X] = y;
+            above_site[X] = s;
+            below_row[X] = y;
+            below_site[X] = s;
+        }
+        for (std::size_t X = 0; X < width; ++X) {
+            const std::int32_t up = y - above_row[X];
+            const std::int32_t down = below_row[X] - y;
+            const std::uint32_t up_site = above_site[X];
+            const std::uint32_t down_site = below_site[X];
+            const std::uint32_t take = all_if((down < up) | ((down == up) & (down_site < up_site)));
+            column_dy[X] = pick(take, down, up);
+            column_site[X] = pick(take, down_site, up_site);
+        }
+        for (std::uint32_t e = row_sites_begin; e < row_sites_end; ++e) {
+            const std::int32_t X = site_x[row_site[e]];
+            below_row[X] = next_row[e];
+            below_site[X] = next_site[e];
+        }
+
+        const std::int64_t count =
+            small ? lower_envelope<true>(column_dy, column_site, nx, kFar, envelope)
+                  : lower_envelope<false>(column_dy, column_site, nx, kFar, envelope);
+        // note: the parabolas meet in increasing order, so the first wins are non-decreasing
+        // (an envelope parabola may own no integer x)
+        start[0] = 0;
+        for (std::int64_t e = 1; e < count; ++e) {
+            start[e] = std::clamp<std::int64_t>(
+                first_win(offset[e] - offset[e - 1], 2 * (apex[e] - apex[e - 1]),
+                          site[e] < site[e - 1]),
+                0, nx);
+        }
+        start[count] = nx;
+
+        // squared distances as floats (exact up to 2^24), then the signed root in one sweep
+        bool exact_float = true;
+        for (std::int64_t e = 0; e < count; ++e) {
+            const std::int64_t from = start[e];
+            const std::int64_t end = start[e + 1];
+            if (from >= end) {
+                continue;
             }
-            apex[count] = static_cast<std::int32_t>(X);
-            height[count] = f;
-            site[count] = s;
-            start[count] = static_cast<std::int32_t>(from);
-            ++count;
+            const std::int64_t a = apex[e];
+            const std::int64_t f = height[e];
+            const std::int64_t far_dx = std::max(std::abs(from - a), std::abs(end - 1 - a));
+            exact_float = exact_float && f + far_dx * far_dx <= kExactFloat;
+            const float fa = static_cast<float>(a);
+            const float ff = static_cast<float>(f);
+            const std::uint32_t s = site[e];
+            for (std::int64_t X = from; X < end; ++X) {
+                const float dx = static_cast<float>(X) - fa;
+                d[X] = ff + dx * dx;
+                c[X] = s;
+            }
+        }
+        if (exact_float) {
+            // note: 0.5f * sqrtf(float(n)) == float(0.5 * sqrt(double(n))) for n <= 2^24 (the
+            // double rounding is innocuous; checked for every n)
+            finish_row(d, side, nx);
+            continue;
         }
         for (std::int64_t e = 0; e < count; ++e) {
-            const std::int64_t end = e + 1 < count ? start[e + 1] : nx;
             const double a = apex[e];
             const double f = static_cast<double>(height[e]);  // note: exact, below 2^53
-            const std::uint32_t s = site[e];
-            for (std::int64_t X = start[e]; X < end; ++X) {
+            for (std::int64_t X = start[e]; X < start[e + 1]; ++X) {
                 const double dx = static_cast<double>(X) - a;
                 const float r = static_cast<float>(0.5 * std::sqrt(f + dx * dx));
-                d[X] = static_cast<float>(sd[X]) * r;  // note: sites have side 0 and r 0
-                c[X] = s;
+                d[X] = static_cast<float>(side[X]) * r;  // note: sites have side 0 and r 0
             }
         }
     }

@@ -95,8 +95,8 @@ struct DistanceOptions {
 /// in doubled integer coordinates with argmin tracking. `set` is slice k's traced contour set
 /// (trace_slice_contours or extract_contours; only the original points are used).
 /// Example: a disc of radius 30 px gives about -30 at its centre, 0 on its contour.
-/// Memory: 8 bytes per node in the result; the calling thread keeps about 1 byte per node (and
-/// per window pixel) of scratch for its next call.
+/// Memory: 8 bytes per node in the result; the calling thread keeps about 1 byte per window pixel
+/// (and some per row, column and site) of scratch for its next call.
 /// \throw Error{InvalidInput} when k is out of range, the label is absent on slice k (no pixel
 ///        or no contour), `margin_px` is negative, not finite or makes the window too large
 ///        (over 2^30 nodes), or the contours do not match the label image (a contour point off
