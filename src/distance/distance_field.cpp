@@ -55,16 +55,32 @@ constexpr std::int64_t kMaxNodes = std::int64_t(1) << 30;
 PixelBox label_box(const SliceStack& stack, std::uint32_t k, std::uint16_t label) {
     PixelBox box{INT64_MAX, INT64_MAX, INT64_MIN, INT64_MIN};
     const auto slice = stack.slice(k);
+    const std::int64_t width = stack.width;
     for (std::int64_t y = 0; y < stack.height; ++y) {
-        const std::uint16_t* row = slice.data() + y * stack.width;
-        for (std::int64_t x = 0; x < stack.width; ++x) {
+        const std::uint16_t* row = slice.data() + y * width;
+        // note: a test that vectorizes first, as most rows do not hold a given label; then the
+        // row is searched only outside the box found so far
+        std::uint32_t any = 0;
+        for (std::int64_t x = 0; x < width; ++x) {
+            any |= static_cast<std::uint32_t>(row[x] == label);
+        }
+        if (any == 0) {
+            continue;
+        }
+        for (std::int64_t x = 0; x < std::min(box.x0, width); ++x) {
             if (row[x] == label) {
-                box.x0 = std::min(box.x0, x);
-                box.x1 = std::max(box.x1, x + 1);
-                box.y0 = std::min(box.y0, y);
-                box.y1 = y + 1;
+                box.x0 = x;
+                break;
             }
         }
+        for (std::int64_t x = width - 1; x >= std::max<std::int64_t>(box.x1, 0); --x) {
+            if (row[x] == label) {
+                box.x1 = x + 1;
+                break;
+            }
+        }
+        box.y0 = std::min(box.y0, y);
+        box.y1 = y + 1;
     }
     return box.empty() ? PixelBox{} : box;
 }
