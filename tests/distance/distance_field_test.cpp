@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <sstream>
@@ -553,6 +554,58 @@ TEST(DistanceField, DiscCentreIsMinusItsRadius) {
     // and +4 just outside the window's margin side, along the axis
     EXPECT_NEAR(field.at(i, 0), 4.0, 0.75);
     EXPECT_GE(field.outside_window_px, 4.0);
+}
+
+TEST(DistanceField, StripsOfOverAMillionNodesAreExact) {
+    // Past 2^20 nodes per side the row envelope compares by quotients instead of 64-bit
+    // products, and past 2048 px the roots are taken in double instead of float: a strip of
+    // 530000 px with a few pixels, both ways round, every node against the brute force and the
+    // distance bit for bit (the exact distance rounded once to float).
+    for (const bool tall : {false, true}) {
+        SCOPED_TRACE(tall ? "tall strip" : "wide strip");
+        const std::uint32_t length = 530000;
+        SliceStack stack = tall ? make_stack(1, length, 1) : make_stack(length, 1, 1);
+        for (const std::uint32_t t : {0u, 1000u, 1001u, 250000u, length - 1}) {
+            set_pixel(stack, tall ? 0 : t, tall ? t : 0, 0, 1);
+        }
+        const SliceContourSet set = trace_slice_contours(stack, 0, {1});
+        DistanceOptions options;
+        options.margin_px = 0.0;
+        const DistanceField field = compute_distance_field(stack, set, 0, 1, options);
+        ASSERT_EQ(tall ? field.ny : field.nx, 2 * length + 1);
+        ASSERT_EQ(field.sites, expected_sites(set, 1));
+        std::vector<Doubled> sites;
+        for (const ContourSite& s : field.sites) {
+            sites.push_back(doubled(site_position(set, s)));
+        }
+        int failures = 0;
+        for (std::uint32_t j = 0; j < field.ny && failures < 5; ++j) {
+            for (std::uint32_t i = 0; i < field.nx && failures < 5; ++i) {
+                const Doubled p{std::int64_t(2 * field.origin_x) + i,
+                                std::int64_t(2 * field.origin_y) + j};
+                std::int64_t best = INT64_MAX;
+                std::uint32_t argmin = 0;
+                for (std::size_t s = 0; s < sites.size(); ++s) {
+                    const std::int64_t dx = p.x - sites[s].x;
+                    const std::int64_t dy = p.y - sites[s].y;
+                    if (dx * dx + dy * dy < best) {  // strict: the smallest index among equals
+                        best = dx * dx + dy * dy;
+                        argmin = std::uint32_t(s);
+                    }
+                }
+                const float r = static_cast<float>(0.5 * std::sqrt(double(best)));
+                const float expected = best != 0 && inside_even_odd(set, 1, p) ? -r : r;
+                const float d = field.at(i, j);
+                const std::uint32_t closest = field.closest[field.node_index(i, j)];
+                if (std::memcmp(&d, &expected, sizeof d) != 0 || closest != argmin) {
+                    ADD_FAILURE() << "node (" << i << ", " << j << "): D " << d << ", expected "
+                                  << expected << ", closest " << closest << ", brute argmin "
+                                  << argmin;
+                    ++failures;
+                }
+            }
+        }
+    }
 }
 
 // ---- Errors -----------------------------------------------------------------------------------
