@@ -150,7 +150,7 @@ Scratch& thread_scratch() {
     return scratch;
 }
 
-// note: branch-free selects, so that the column passes vectorize (GCC 12 does not if-convert
+// note: branch-free selects, so that the loops using them vectorize (GCC 12 does not if-convert
 // the equivalent conditional expressions there)
 std::uint32_t all_if(bool b) {
     return 0u - static_cast<std::uint32_t>(b);
