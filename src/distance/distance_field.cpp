@@ -379,29 +379,6 @@ std::int64_t lower_envelope(const std::int32_t* column_dy,
     return count;
 }
 
-/// d[X] = sqrt(d[X]) / 2, negated where side[X] < 0, for X in [0, n); d[X] >= 0.
-void finish_row(float* d, const std::int8_t* side, std::int64_t n) {
-    std::int64_t X = 0;
-#if defined(__SSE2__)
-    // note: intrinsics, as std::sqrt does not vectorize while it may set errno
-    const __m128 half = _mm_set1_ps(0.5f);
-    for (; X + 4 <= n; X += 4) {
-        const __m128 r = _mm_mul_ps(half, _mm_sqrt_ps(_mm_loadu_ps(d + X)));
-        std::int32_t four = 0;
-        std::memcpy(&four, side + X, 4);
-        const __m128i s8 = _mm_cvtsi32_si128(four);
-        const __m128i s16 = _mm_unpacklo_epi8(s8, s8);
-        const __m128i s32 = _mm_unpacklo_epi16(s16, s16);  // each side in the top byte
-        const __m128i sign = _mm_slli_epi32(_mm_srli_epi32(s32, 31), 31);
-        _mm_storeu_ps(d + X, _mm_or_ps(r, _mm_castsi128_ps(sign)));
-    }
-#endif
-    for (; X < n; ++X) {
-        const float r = 0.5f * std::sqrt(d[X]);
-        d[X] = side[X] < 0 ? -r : r;
-    }
-}
-
 /// The field of `label` on slice k over `window` (pixel box of the label on slices k-1..k+1)
 /// grown by `margin` pixels; `own` is the label's box on slice k.
 DistanceField field_in_window(const SliceStack& stack,
@@ -435,10 +412,8 @@ DistanceField field_in_window(const SliceStack& stack,
     field.nx = static_cast<std::uint32_t>(nx);
     field.ny = static_cast<std::uint32_t>(ny);
     const std::size_t nodes = static_cast<std::size_t>(nx * ny);
-    assign_large(field.closest, nodes, kNoSite);
-    assign_large(field.distance_px, nodes, 0.0f);
-    std::uint32_t* closest = field.closest.data();
-    float* distance = field.distance_px.data();
+    assign_large(field.node_sites, nodes, kNoSite);
+    std::uint32_t* closest = field.node_sites.data();
     Scratch& scratch = thread_scratch();
     scratch.site_x.clear();
     scratch.site_y.clear();
@@ -508,6 +483,10 @@ DistanceField field_in_window(const SliceStack& stack,
     if (field.sites.empty()) {
         throw Error(ErrorCode::InvalidInput,
                     where(k, label) + ": the label is absent from the slice (no contour)");
+    }
+    field.site_nodes.resize(field.sites.size());
+    for (std::size_t s = 0; s < field.sites.size(); ++s) {
+        field.site_nodes[s] = {scratch.site_x[s], scratch.site_y[s]};
     }
 
     // ---- window mask, one pixel of background padding (pixels outside the image are
@@ -605,10 +584,8 @@ DistanceField field_in_window(const SliceStack& stack,
     const Envelope envelope{apex, height, offset, site};
     // note: with at most 2^20 nodes per side the envelope's products fit in 64 bits
     const bool small = nx <= (std::int64_t(1) << 20) && ny <= (std::int64_t(1) << 20);
-    constexpr std::int64_t kExactFloat = std::int64_t(1) << 24;  // squares up to here: float path
     for (std::int64_t Y = 0; Y < ny; ++Y) {
         std::uint32_t* c = closest + static_cast<std::size_t>(Y) * width;
-        float* d = distance + static_cast<std::size_t>(Y) * width;
         const std::int32_t y = static_cast<std::int32_t>(Y);
 
         // the sites of this row (marked in `closest`) must be exactly its boundary nodes
@@ -664,41 +641,16 @@ DistanceField field_in_window(const SliceStack& stack,
         }
         start[count] = nx;
 
-        // squared distances as floats (exact up to 2^24), then the signed root in one sweep
-        bool exact_float = true;
+        // the closest site of every node, and its side (DistanceField::at recomputes the
+        // distance from them)
         for (std::int64_t e = 0; e < count; ++e) {
-            const std::int64_t from = start[e];
-            const std::int64_t end = start[e + 1];
-            if (from >= end) {
-                continue;
-            }
-            const std::int64_t a = apex[e];
-            const std::int64_t f = height[e];
-            const std::int64_t far_dx = std::max(std::abs(from - a), std::abs(end - 1 - a));
-            exact_float = exact_float && f + far_dx * far_dx <= kExactFloat;
-            const float fa = static_cast<float>(a);
-            const float ff = static_cast<float>(f);
-            const std::uint32_t s = site[e];
-            for (std::int64_t X = from; X < end; ++X) {
-                const float dx = static_cast<float>(X) - fa;
-                d[X] = ff + dx * dx;
-                c[X] = s;
-            }
-        }
-        if (exact_float) {
-            // note: 0.5f * sqrtf(float(n)) == float(0.5 * sqrt(double(n))) for n <= 2^24 (the
-            // double rounding is innocuous; checked for every n)
-            finish_row(d, side, nx);
-            continue;
-        }
-        for (std::int64_t e = 0; e < count; ++e) {
-            const double a = apex[e];
-            const double f = static_cast<double>(height[e]);  // note: exact, below 2^53
+            const std::uint32_t site_of = site[e];
             for (std::int64_t X = start[e]; X < start[e + 1]; ++X) {
-                const double dx = static_cast<double>(X) - a;
-                const float r = static_cast<float>(0.5 * std::sqrt(f + dx * dx));
-                d[X] = static_cast<float>(side[X]) * r;  // note: sites have side 0 and r 0
+                c[X] = site_of;
             }
+        }
+        for (std::size_t X = 0; X < width; ++X) {
+            c[X] |= all_if(side[X] < 0) & DistanceField::kInside;  // note: sites have side 0
         }
     }
 
@@ -709,6 +661,47 @@ DistanceField field_in_window(const SliceStack& stack,
 }
 
 }  // namespace
+
+void DistanceField::distance_row(std::uint32_t j,
+                                 std::uint32_t i0,
+                                 std::uint32_t count,
+                                 float* out) const {
+    const std::uint32_t* row = node_sites.data() + node_index(i0, j);
+    constexpr std::int64_t kExactFloat = std::int64_t(1) << 24;  // squares up to here: float path
+    bool exact_float = true;
+    for (std::uint32_t k = 0; k < count; ++k) {
+        const std::array<std::int32_t, 2>& s = site_nodes[row[k] & ~kInside];
+        const std::int64_t dx = std::int64_t(i0) + k - s[0];
+        const std::int64_t dy = std::int64_t(j) - s[1];
+        const std::int64_t n = dx * dx + dy * dy;
+        exact_float = exact_float && n <= kExactFloat;
+        out[k] = static_cast<float>(n);
+    }
+    if (!exact_float) {
+        for (std::uint32_t k = 0; k < count; ++k) {
+            out[k] = at(i0 + k, j);
+        }
+        return;
+    }
+    // note: 0.5f * sqrtf(float(n)) == float(0.5 * sqrt(double(n))) (what `at` computes) for every
+    // n <= 2^24 (the double rounding is innocuous; checked for every n)
+    std::uint32_t k = 0;
+#if defined(__SSE2__)
+    // note: intrinsics, as std::sqrt does not vectorize while it may set errno; kInside is the
+    // float sign bit
+    const __m128 half = _mm_set1_ps(0.5f);
+    const __m128i inside = _mm_set1_epi32(static_cast<int>(kInside));
+    for (; k + 4 <= count; k += 4) {
+        const __m128 r = _mm_mul_ps(half, _mm_sqrt_ps(_mm_loadu_ps(out + k)));
+        const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + k));
+        _mm_storeu_ps(out + k, _mm_or_ps(r, _mm_castsi128_ps(_mm_and_si128(v, inside))));
+    }
+#endif
+    for (; k < count; ++k) {
+        const float r = 0.5f * std::sqrt(out[k]);
+        out[k] = (row[k] & kInside) != 0 ? -r : r;
+    }
+}
 
 DistanceField compute_distance_field(const SliceStack& stack,
                                      const SliceContourSet& set,

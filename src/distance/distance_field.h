@@ -1,5 +1,7 @@
 #pragma once
 
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -27,10 +29,12 @@ struct ContourSite {
 ///
 /// The sites are every node on the label's original contours: the contour points and the
 /// midpoints of their unit segments (all contour points lie on this grid; the sqrt(1/2) chamfers
-/// at cut saddles and the 0.5 half-edges have no interior node). `distance_px` is the exact
-/// Euclidean distance to the nearest site (rounded once to float), negative inside the label,
-/// zero exactly on the sites; `closest` names that site. Ties: among the sites at exactly the
-/// smallest distance, `closest` is the one with the smallest index in `sites`.
+/// at cut saddles and the 0.5 half-edges have no interior node). `at` is the exact Euclidean
+/// distance to the nearest site (rounded once to float), negative inside the label, zero exactly
+/// on the sites; `closest` names that site. Ties: among the sites at exactly the smallest
+/// distance, `closest` is the one with the smallest index in `sites`.
+/// Stored compactly (DESIGN.md section 6): 4 bytes per node, the closest site and the side; the
+/// distance is not stored but recomputed, bit-identical, from the node and its site.
 /// Inside/outside follows the mask, pixels outside the image being background: a pixel centre
 /// takes its pixel's value, a non-site edge midpoint or corner the common value of the pixels
 /// around it, except a saddle corner (diagonal pattern), which is cut off by the contour and is
@@ -44,16 +48,20 @@ struct ContourSite {
 struct DistanceField {
     std::uint16_t label = 0;
     std::uint32_t slice = 0;
-    double origin_x = 0.0;               ///< px, a pixel corner (integer)
-    double origin_y = 0.0;               ///< px, a pixel corner (integer)
-    std::uint32_t nx = 0;                ///< nodes per row
-    std::uint32_t ny = 0;                ///< node rows
-    std::vector<float> distance_px;      ///< nx * ny signed distances, row-major
-    std::vector<std::uint32_t> closest;  ///< nx * ny indices into `sites`
-    std::vector<ContourSite> sites;      ///< the sites, sorted by (contour, point, midpoint)
+    double origin_x = 0.0;  ///< px, a pixel corner (integer)
+    double origin_y = 0.0;  ///< px, a pixel corner (integer)
+    std::uint32_t nx = 0;   ///< nodes per row
+    std::uint32_t ny = 0;   ///< node rows
+    /// nx * ny, row-major: the node's closest site (index into `sites`), or'ed with kInside when
+    /// the node is inside the label (never for a site)
+    std::vector<std::uint32_t> node_sites;
+    std::vector<ContourSite> sites;  ///< the sites, sorted by (contour, point, midpoint)
+    /// per site its node (column, row): sites lie on nodes
+    std::vector<std::array<std::int32_t, 2>> site_nodes;
     double outside_window_px = 0.0;
 
     static constexpr double kCellPx = 0.5;  ///< node spacing, px
+    static constexpr std::uint32_t kInside = std::uint32_t(1) << 31;
 
     Vec2 node_position(std::uint32_t i, std::uint32_t j) const {
         return {origin_x + kCellPx * i, origin_y + kCellPx * j};
@@ -61,7 +69,23 @@ struct DistanceField {
     std::size_t node_index(std::uint32_t i, std::uint32_t j) const {
         return std::size_t(j) * nx + i;
     }
-    float at(std::uint32_t i, std::uint32_t j) const { return distance_px[node_index(i, j)]; }
+    /// Index into `sites` of the closest site of node `node` (node_index).
+    std::uint32_t closest(std::size_t node) const { return node_sites[node] & ~kInside; }
+    /// Signed distance (px) of node (i, j): float(|node - site| / 2, node units), negated inside;
+    /// exactly what the distance transform computed.
+    float at(std::uint32_t i, std::uint32_t j) const {
+        const std::uint32_t v = node_sites[node_index(i, j)];
+        const std::array<std::int32_t, 2>& s = site_nodes[v & ~kInside];
+        const double dx = double(std::int64_t(i) - s[0]);
+        const double dy = double(std::int64_t(j) - s[1]);
+        const float r = static_cast<float>(0.5 * std::sqrt(dx * dx + dy * dy));
+        return (v & kInside) != 0 ? -r : r;
+    }
+    float distance(std::size_t node) const {
+        return at(static_cast<std::uint32_t>(node % nx), static_cast<std::uint32_t>(node / nx));
+    }
+    /// The signed distances (as `at`) of nodes [i0, i0 + count) of row j, into `out`.
+    void distance_row(std::uint32_t j, std::uint32_t i0, std::uint32_t count, float* out) const;
 };
 
 /// Position (px) of a site on the contours it was taken from (`set`: the field's slice).
@@ -95,9 +119,9 @@ struct DistanceOptions {
 /// in doubled integer coordinates with argmin tracking. `set` is slice k's traced contour set
 /// (trace_slice_contours or extract_contours; only the original points are used).
 /// Example: a disc of radius 30 px gives about -30 at its centre, 0 on its contour.
-/// Memory: 8 bytes per node in the result; the calling thread keeps about 1 byte per window pixel
-/// (and some per row, column and site) of scratch for its next call.
-/// \throw Error{InvalidInput} when k is out of range, the label is absent on slice k (no pixel
+/// Memory: 4 bytes per node in the result (and 20 per site); the calling thread keeps about 1 byte
+/// per window pixel (and some per row, column and site) of scratch for its next call. \throw
+/// Error{InvalidInput} when k is out of range, the label is absent on slice k (no pixel
 ///        or no contour), `margin_px` is negative, not finite or makes the window too large
 ///        (over 2^30 nodes), or the contours do not match the label image (a contour point off
 ///        the half-pixel grid or outside the window, a step other than 1, 0.5 or sqrt(1/2) px,

@@ -81,12 +81,16 @@ SumGrid sum_fields(const DistanceField& a, const DistanceField& b) {
     g.offset_b_x = x0 - bx0;
     g.offset_b_y = y0 - by0;
     g.sum.resize(static_cast<std::size_t>(g.nx * g.ny));
+    std::vector<float> rb(static_cast<std::size_t>(g.nx));
+    const auto count = static_cast<std::uint32_t>(g.nx);
     for (std::int64_t j = 0; j < g.ny; ++j) {
-        const float* ra = a.distance_px.data() + (j + g.offset_a_y) * a.nx + g.offset_a_x;
-        const float* rb = b.distance_px.data() + (j + g.offset_b_y) * b.nx + g.offset_b_x;
         float* out = g.sum.data() + j * g.nx;
+        a.distance_row(static_cast<std::uint32_t>(j + g.offset_a_y),
+                       static_cast<std::uint32_t>(g.offset_a_x), count, out);
+        b.distance_row(static_cast<std::uint32_t>(j + g.offset_b_y),
+                       static_cast<std::uint32_t>(g.offset_b_x), count, rb.data());
         for (std::int64_t i = 0; i < g.nx; ++i) {
-            out[i] = ra[i] + rb[i];
+            out[i] += rb[static_cast<std::size_t>(i)];
         }
     }
     return g;
@@ -323,8 +327,10 @@ void trace_label(std::uint16_t label,
     auto closest_site = [](const DistanceField& f, const SliceContourSet& set, std::int64_t ox,
                            std::int64_t oy, const std::array<std::int64_t, 4>& n, Vec2 p,
                            double& distance) {
-        const std::uint32_t s0 = f.closest[(n[1] + oy) * f.nx + n[0] + ox];
-        const std::uint32_t s1 = f.closest[(n[3] + oy) * f.nx + n[2] + ox];
+        const std::uint32_t s0 =
+            f.closest(static_cast<std::size_t>((n[1] + oy) * f.nx + n[0] + ox));
+        const std::uint32_t s1 =
+            f.closest(static_cast<std::size_t>((n[3] + oy) * f.nx + n[2] + ox));
         const double d0 = norm(p - site_position(set, f.sites[s0]));
         const double d1 = norm(p - site_position(set, f.sites[s1]));
         const bool second = d1 < d0 || (d1 == d0 && s1 < s0);

@@ -116,7 +116,7 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
     // The smallest bound over the sites of the four field nodes around a for the piece [a, b]
     // (the nearest node's site first: when it stays within `reached` the piece is settled).
     auto charge = [&](Vec2 a, Vec2 b) {
-        const Vec2 near = slice.sites[f.closest[nearest_node(slice, a)]];
+        const Vec2 near = slice.sites[f.closest(nearest_node(slice, a))];
         const double first = std::max(distance(a, near), distance(b, near));
         if (first <= reached) {
             return first;
@@ -131,7 +131,7 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
         for (const double i : {i0, i1}) {
             for (const double j : {j0, j1}) {
                 const Vec2 s =
-                    slice.sites[f.closest[f.node_index(std::uint32_t(i), std::uint32_t(j))]];
+                    slice.sites[f.closest(f.node_index(std::uint32_t(i), std::uint32_t(j)))];
                 best = std::min(best, std::max(distance(a, s), distance(b, s)));
             }
         }
@@ -145,7 +145,7 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
             reached = std::max(reached, charge(q, q));
             break;
         }
-        const Vec2 s = slice.sites[f.closest[nearest_node(slice, a)]];
+        const Vec2 s = slice.sites[f.closest(nearest_node(slice, a))];
         const Vec2 w = a - s;
         const double c = dot(w, w) - reached * reached;
         if (c <= 0.0) {
@@ -227,7 +227,7 @@ double SliceErrorMeter::cap_error_px(std::uint32_t k, const std::array<Vec2, 3>&
                     const std::uint32_t i = std::uint32_t(std::clamp(ni, 0.0, double(f.nx - 1)));
                     const std::uint32_t j = std::uint32_t(std::clamp(nj, 0.0, double(f.ny - 1)));
                     nodes[count++] = f.node_index(i, j);
-                    if (!in_window || f.distance_px[nodes[count - 1]] > -kInsideDepthPx) {
+                    if (!in_window || f.distance(nodes[count - 1]) > -kInsideDepthPx) {
                         deep_inside = false;
                     }
                 }
@@ -242,7 +242,7 @@ double SliceErrorMeter::cap_error_px(std::uint32_t k, const std::array<Vec2, 3>&
             }
             double best = kInfinity;
             for (const std::size_t node : nodes) {
-                const Vec2 s = slice.sites[f.closest[node]];
+                const Vec2 s = slice.sites[f.closest(node)];
                 double far = 0.0;
                 for (int i = 0; i < piece.n; ++i) {
                     far = std::max(far, distance(piece.p[i], s));

@@ -748,8 +748,8 @@ OursBytes write_ours(const std::filesystem::path& path,
         for (std::size_t i = 0; i < models.size(); ++i) {
             for (const MultiresGroup& g : models[i]->groups) {
                 if (g.error_px > kCutErrorsPx[e]) {
-                    for (const std::uint32_t c : g.consumed) {
-                        out.cut_bytes[e] += cluster_bytes[i].at(c);
+                    for (const std::uint32_t consumed : g.consumed) {
+                        out.cut_bytes[e] += cluster_bytes[i].at(consumed);
                     }
                 }
             }
@@ -1237,12 +1237,12 @@ void run_case(const std::string& spec,
         const std::vector<StorageModel> storage = storage_of(result.models);
         for (const StorageModel& s : storage) {
             b.full_vertices += full_patch(s).vertices.size();
-            for (std::uint32_t c = 0; c < s.model->clusters.size(); ++c) {
-                const MultiresCluster& cluster = s.model->clusters[c];
+            for (std::uint32_t id = 0; id < s.model->clusters.size(); ++id) {
+                const MultiresCluster& cluster = s.model->clusters[id];
                 if (cluster.level == 0) {
                     b.l0_cluster_vertices += cluster.vertices.size();
                 }
-                const Patch patch = cluster_patch(s, c);
+                const Patch patch = cluster_patch(s, id);
                 if (cluster.consumer < 0) {
                     // uncompressed: float positions and normals, 16/32-bit indices
                     b.base_binary +=

@@ -173,6 +173,27 @@ double brute_distance(const std::vector<Doubled>& sites, double x, double y) {
     return best;
 }
 
+/// DistanceField::distance_row gives `at` of every node, bit for bit (the compact storage's two
+/// ways of recomputing a distance from the closest site).
+void expect_rows_match_at(const DistanceField& field) {
+    std::vector<float> row(field.nx);
+    int failures = 0;
+    for (std::uint32_t j = 0; j < field.ny && failures < 5; ++j) {
+        // the whole row, and its part from node 1 (unaligned for the vector path)
+        for (const std::uint32_t i0 : {0u, std::min(1u, field.nx)}) {
+            field.distance_row(j, i0, field.nx - i0, row.data());
+            for (std::uint32_t i = i0; i < field.nx && failures < 5; ++i) {
+                const float at = field.at(i, j);
+                if (std::memcmp(&at, &row[i - i0], sizeof at) != 0) {
+                    ADD_FAILURE() << "node (" << i << ", " << j << "): at " << at << ", row "
+                                  << row[i - i0];
+                    ++failures;
+                }
+            }
+        }
+    }
+}
+
 /// Compares every node of `field` with the brute force; reports the first few differences.
 void check_field(const SliceStack& stack,
                  const SliceContourSet& set,
@@ -190,9 +211,10 @@ void check_field(const SliceStack& stack,
     ASSERT_EQ(field.origin_y, double(w.y0));
     ASSERT_EQ(field.nx, std::uint32_t(2 * (w.x1 - w.x0) + 1));
     ASSERT_EQ(field.ny, std::uint32_t(2 * (w.y1 - w.y0) + 1));
-    ASSERT_EQ(field.distance_px.size(), std::size_t(field.nx) * field.ny);
-    ASSERT_EQ(field.closest.size(), std::size_t(field.nx) * field.ny);
+    ASSERT_EQ(field.node_sites.size(), std::size_t(field.nx) * field.ny);
+    ASSERT_EQ(field.site_nodes.size(), field.sites.size());
     ASSERT_EQ(field.sites, expected_sites(set, label));
+    expect_rows_match_at(field);
 
     std::vector<Doubled> site_points;
     for (const ContourSite& s : field.sites) {
@@ -215,7 +237,7 @@ void check_field(const SliceStack& stack,
             }
             const double exact = 0.5 * std::sqrt(double(best));
             const float d = field.at(i, j);
-            const std::uint32_t closest = field.closest[field.node_index(i, j)];
+            const std::uint32_t closest = field.closest(field.node_index(i, j));
             std::ostringstream node;
             node << "node (" << i << ", " << j << ") at (" << 0.5 * p.x << ", " << 0.5 * p.y
                  << "): D " << d << ", brute " << exact << ", closest " << closest
@@ -385,7 +407,7 @@ TEST(DistanceField, TiesGoToTheSmallestSiteIndex) {
     const std::uint32_t i = std::uint32_t(2 * (3.5 - field.origin_x));
     const std::uint32_t j = std::uint32_t(2 * (2.5 - field.origin_y));
     EXPECT_FLOAT_EQ(field.at(i, j), 0.5f);
-    const ContourSite won = field.sites[field.closest[field.node_index(i, j)]];
+    const ContourSite won = field.sites[field.closest(field.node_index(i, j))];
     EXPECT_EQ(set.contours[won.contour].points[0].x, 1.0);  // the first contour's site
 }
 
@@ -444,8 +466,8 @@ TEST(DistanceField, DeterministicForAnyThreadCount) {
                 EXPECT_EQ(a.nx, other->nx);
                 EXPECT_EQ(a.ny, other->ny);
                 EXPECT_EQ(a.outside_window_px, other->outside_window_px);
-                EXPECT_TRUE(a.distance_px == other->distance_px);
-                EXPECT_TRUE(a.closest == other->closest);
+                EXPECT_TRUE(a.node_sites == other->node_sites);
+                EXPECT_TRUE(a.site_nodes == other->site_nodes);
                 EXPECT_TRUE(a.sites == other->sites);
             }
             EXPECT_EQ(a.label, contours.slices[k].labels[f].label);
@@ -574,6 +596,7 @@ TEST(DistanceField, StripsOfOverAMillionNodesAreExact) {
         const DistanceField field = compute_distance_field(stack, set, 0, 1, options);
         ASSERT_EQ(tall ? field.ny : field.nx, 2 * length + 1);
         ASSERT_EQ(field.sites, expected_sites(set, 1));
+        expect_rows_match_at(field);
         std::vector<Doubled> sites;
         for (const ContourSite& s : field.sites) {
             sites.push_back(doubled(site_position(set, s)));
@@ -596,7 +619,7 @@ TEST(DistanceField, StripsOfOverAMillionNodesAreExact) {
                 const float r = static_cast<float>(0.5 * std::sqrt(double(best)));
                 const float expected = best != 0 && inside_even_odd(set, 1, p) ? -r : r;
                 const float d = field.at(i, j);
-                const std::uint32_t closest = field.closest[field.node_index(i, j)];
+                const std::uint32_t closest = field.closest(field.node_index(i, j));
                 if (std::memcmp(&d, &expected, sizeof d) != 0 || closest != argmin) {
                     ADD_FAILURE() << "node (" << i << ", " << j << "): D " << d << ", expected "
                                   << expected << ", closest " << closest << ", brute argmin "
