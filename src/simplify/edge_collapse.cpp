@@ -49,6 +49,15 @@ struct Candidate {
     }
 };
 
+struct TriangleHash {
+    std::size_t operator()(const Tri& t) const noexcept {
+        const std::uint64_t h = std::uint64_t(t[0]) * 0x9e3779b97f4a7c15ull ^
+                                std::uint64_t(t[1]) * 0xc2b2ae3d27d4eb4full ^
+                                std::uint64_t(t[2]) * 0x165667b19e3779f9ull;
+        return std::size_t(h ^ (h >> 29));
+    }
+};
+
 Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
     return cross(b - a, c - a);
 }
@@ -353,8 +362,7 @@ private:
             if (dot(n0, n1) < std::max(options_.min_normal_cos, 1e-12) * l0 * l1) {
                 return std::nullopt;
             }
-            reached =
-                std::max(reached, meter_.triangle_error_px(after, ids_moved(t, u, v), cache_));
+            reached = std::max(reached, moved_error(t, u, v, after));
             any = true;
             if (reached > options_.max_error_px) {
                 return std::nullopt;
@@ -364,6 +372,23 @@ private:
             return std::nullopt;
         }
         return reached;
+    }
+
+    /// Error bound of triangle t with u replaced by v (corners `after`), read once per triangle.
+    /// note: positions never move and the section cache only grows, so a triangle's bound never
+    /// changes: the collapses around a vertex meet the same new triangles again and again.
+    double moved_error(std::uint32_t t,
+                       std::uint32_t u,
+                       std::uint32_t v,
+                       const std::array<Vec3, 3>& after) const {
+        const Tri ids = ids_moved(t, u, v);
+        const auto it = triangle_errors_.find(ids);
+        if (it != triangle_errors_.end()) {
+            return it->second;
+        }
+        const double error = meter_.triangle_error_px(after, ids, cache_);
+        triangle_errors_.emplace(ids, error);
+        return error;
     }
 
     void push_candidates(std::uint32_t u) {
@@ -449,7 +474,7 @@ private:
                 continue;
             }
             const std::array<Vec3, 3> after = moved(t, u, v);
-            error_[t] = meter_.triangle_error_px(after, ids_moved(t, u, v), cache_);
+            error_[t] = moved_error(t, u, v, after);
             for (std::uint32_t& w : triangles_[t]) {
                 if (w == u) {
                     w = v;
@@ -472,6 +497,8 @@ private:
     const SliceErrorMeter& meter_;
     const CollapseOptions& options_;
     mutable SectionCache cache_;
+    /// Bound of every triangle measured so far, by its global ids in order.
+    mutable std::unordered_map<Tri, double, TriangleHash> triangle_errors_;
     TriangleGrid grid_;
     std::vector<std::uint32_t> global_;  ///< local vertex -> global id
     std::vector<bool> locked_;
