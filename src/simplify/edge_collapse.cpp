@@ -89,6 +89,8 @@ public:
         vertex_triangles_.resize(n);
         locked_.assign(n, false);
         stamp_.assign(n, 0);
+        neighbours_.resize(n);
+        neighbours_stamp_.assign(n, kNone);
         for (const std::uint32_t g : problem.locked) {
             const std::uint32_t v = local(g);
             if (v != kNone) {
@@ -232,12 +234,13 @@ private:
     }
 
     /// Sorted distinct neighbours of v.
-    std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
-        std::vector<std::uint32_t> result;
-        neighbours(v, result);
-        return result;
-    }
-    void neighbours(std::uint32_t v, std::vector<std::uint32_t>& result) const {
+    /// note: kept until v's star changes (its stamp moves on): the candidates of one vertex are
+    /// popped together and each asks for the same lists.
+    const std::vector<std::uint32_t>& neighbours(std::uint32_t v) const {
+        std::vector<std::uint32_t>& result = neighbours_[v];
+        if (neighbours_stamp_[v] == stamp_[v]) {
+            return result;
+        }
         result.clear();
         for (const std::uint32_t t : vertex_triangles_[v]) {
             for (const std::uint32_t w : triangles_[t]) {
@@ -248,6 +251,8 @@ private:
         }
         std::sort(result.begin(), result.end());
         result.erase(std::unique(result.begin(), result.end()), result.end());
+        neighbours_stamp_[v] = stamp_[v];
+        return result;
     }
 
     bool contains(std::uint32_t t, std::uint32_t v) const {
@@ -297,10 +302,8 @@ private:
         if (found != 2 || opposite[0] == opposite[1]) {
             return false;  // not an interior manifold edge of the piece
         }
-        std::vector<std::uint32_t>& nu = scratch_u_;
-        std::vector<std::uint32_t>& nv = scratch_v_;
-        neighbours(u, nu);
-        neighbours(v, nv);
+        const std::vector<std::uint32_t>& nu = neighbours(u);
+        const std::vector<std::uint32_t>& nv = neighbours(v);
         std::sort(opposite.begin(), opposite.end());
         // Link condition: the common neighbours of u and v are exactly the two opposite vertices.
         std::size_t common = 0;
@@ -459,7 +462,7 @@ private:
     void apply(std::uint32_t u, std::uint32_t v) {
         // note: only the stars of u's neighbours change (positions never move), so only their
         // candidates need new costs.
-        std::vector<std::uint32_t> touched = neighbours(u);
+        const std::vector<std::uint32_t> touched = neighbours(u);
         std::vector<std::uint32_t> star = vertex_triangles_[u];
         for (const std::uint32_t t : star) {
             if (contains(t, v)) {
@@ -510,7 +513,8 @@ private:
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     std::priority_queue<Candidate> queue_;
-    mutable std::vector<std::uint32_t> scratch_u_, scratch_v_;
+    mutable std::vector<std::vector<std::uint32_t>> neighbours_;  ///< see neighbours()
+    mutable std::vector<std::uint32_t> neighbours_stamp_;         ///< stamp of each list
     std::vector<std::uint32_t> seen_;
     std::uint32_t query_ = 0;
 };
