@@ -91,15 +91,6 @@ SliceErrorMeter::SliceErrorMeter(const SliceContours& contours,
     }
 }
 
-std::uint32_t SliceErrorMeter::nearest_node(const Slice& slice, Vec2 p) const {
-    const DistanceField& f = *slice.field;
-    const double fx = std::floor((p.x - f.origin_x) / DistanceField::kCellPx + 0.5);
-    const double fy = std::floor((p.y - f.origin_y) / DistanceField::kCellPx + 0.5);
-    const double i = std::clamp(fx, 0.0, double(f.nx - 1));
-    const double j = std::clamp(fy, 0.0, double(f.ny - 1));
-    return static_cast<std::uint32_t>(f.node_index(std::uint32_t(i), std::uint32_t(j)));
-}
-
 double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px) const {
     if (k >= slices_.size() || slices_[k].field == nullptr) {
         return kInfinity;
@@ -113,10 +104,29 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
     }
     const Vec2 dir = length > 0.0 ? (1.0 / length) * (q - p) : Vec2{1.0, 0.0};
 
+    // The site of the node nearest to a (clamped to the window). note: the hot loop of
+    // simplification, so the field's constants are read once.
+    const double origin_x = f.origin_x;
+    const double origin_y = f.origin_y;
+    const double last_i = double(f.nx - 1);
+    const double last_j = double(f.ny - 1);
+    const std::size_t nx = f.nx;
+    const std::uint32_t* const node_sites = f.node_sites.data();
+    const Vec2* const sites = slice.sites.data();
+    auto nearest_site = [&](Vec2 a) {
+        const double fx = std::floor((a.x - origin_x) / DistanceField::kCellPx + 0.5);
+        const double fy = std::floor((a.y - origin_y) / DistanceField::kCellPx + 0.5);
+        const double i = std::clamp(fx, 0.0, last_i);
+        const double j = std::clamp(fy, 0.0, last_j);
+        const auto node =
+            static_cast<std::uint32_t>(std::size_t(std::uint32_t(j)) * nx + std::uint32_t(i));
+        return sites[node_sites[node] & ~DistanceField::kInside];
+    };
+
     // The smallest bound over the sites of the four field nodes around a for the piece [a, b]
     // (the nearest node's site first: when it stays within `reached` the piece is settled).
     auto charge = [&](Vec2 a, Vec2 b) {
-        const Vec2 near = slice.sites[f.closest(nearest_node(slice, a))];
+        const Vec2 near = nearest_site(a);
         const double first = std::max(distance(a, near), distance(b, near));
         if (first <= reached) {
             return first;
@@ -145,7 +155,7 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
             reached = std::max(reached, charge(q, q));
             break;
         }
-        const Vec2 s = slice.sites[f.closest(nearest_node(slice, a))];
+        const Vec2 s = nearest_site(a);
         const Vec2 w = a - s;
         const double c = dot(w, w) - reached * reached;
         if (c <= 0.0) {

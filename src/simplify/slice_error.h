@@ -80,8 +80,6 @@ private:
                           const std::array<std::uint32_t, 3>* ids,
                           SectionCache* cache,
                           double known_px) const;
-    /// The node nearest to p, clamped to the window.
-    std::uint32_t nearest_node(const Slice& slice, Vec2 p) const;
 
     std::vector<Slice> slices_;
     double spacing_ = 1.0;
