@@ -49,13 +49,63 @@ struct Candidate {
     }
 };
 
-struct TriangleHash {
-    std::size_t operator()(const Tri& t) const noexcept {
-        const std::uint64_t h = std::uint64_t(t[0]) * 0x9e3779b97f4a7c15ull ^
-                                std::uint64_t(t[1]) * 0xc2b2ae3d27d4eb4full ^
-                                std::uint64_t(t[2]) * 0x165667b19e3779f9ull;
-        return std::size_t(h ^ (h >> 29));
+/// Error bounds of triangles by their vertex ids in order: open addressing with linear probing
+/// (a node per entry made allocation the cost of the memo).
+class TriangleErrors {
+public:
+    /// The bound stored for `t`, or null.
+    const double* find(const Tri& t) const {
+        if (entries_.empty()) {
+            return nullptr;
+        }
+        for (std::size_t i = slot(t);; i = (i + 1) & mask()) {
+            const Entry& e = entries_[i];
+            if (e.ids == t) {
+                return &e.error;
+            }
+            if (e.ids[0] == kNone) {
+                return nullptr;
+            }
+        }
     }
+    /// Stores the bound of `t` (not stored yet; no id may be kNone).
+    void insert(const Tri& t, double error) {
+        if (2 * (size_ + 1) > entries_.size()) {
+            grow();
+        }
+        std::size_t i = slot(t);
+        while (entries_[i].ids[0] != kNone) {
+            i = (i + 1) & mask();
+        }
+        entries_[i] = {t, error};
+        ++size_;
+    }
+
+private:
+    struct Entry {
+        Tri ids{kNone, kNone, kNone};
+        double error = 0.0;
+    };
+    std::size_t mask() const { return entries_.size() - 1; }
+    std::size_t slot(const Tri& t) const {
+        std::uint64_t h = std::uint64_t(t[0]) * 0x9e3779b97f4a7c15ull ^
+                          std::uint64_t(t[1]) * 0xc2b2ae3d27d4eb4full ^
+                          std::uint64_t(t[2]) * 0x165667b19e3779f9ull;
+        h ^= h >> 29;
+        return std::size_t(h) & mask();
+    }
+    void grow() {
+        std::vector<Entry> old(std::max<std::size_t>(1024, 2 * entries_.size()));
+        old.swap(entries_);
+        size_ = 0;
+        for (const Entry& e : old) {
+            if (e.ids[0] != kNone) {
+                insert(e.ids, e.error);
+            }
+        }
+    }
+    std::vector<Entry> entries_;  ///< size a power of two (or 0)
+    std::size_t size_ = 0;
 };
 
 Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -385,12 +435,11 @@ private:
                        std::uint32_t v,
                        const std::array<Vec3, 3>& after) const {
         const Tri ids = ids_moved(t, u, v);
-        const auto it = triangle_errors_.find(ids);
-        if (it != triangle_errors_.end()) {
-            return it->second;
+        if (const double* known = triangle_errors_.find(ids)) {
+            return *known;
         }
         const double error = meter_.triangle_error_px(after, ids, cache_);
-        triangle_errors_.emplace(ids, error);
+        triangle_errors_.insert(ids, error);
         return error;
     }
 
@@ -501,7 +550,7 @@ private:
     const CollapseOptions& options_;
     mutable SectionCache cache_;
     /// Bound of every triangle measured so far, by its global ids in order.
-    mutable std::unordered_map<Tri, double, TriangleHash> triangle_errors_;
+    mutable TriangleErrors triangle_errors_;
     TriangleGrid grid_;
     std::vector<std::uint32_t> global_;  ///< local vertex -> global id
     std::vector<bool> locked_;

@@ -15,16 +15,17 @@ namespace strata::detail {
 
 /// True when the bounding boxes of two triangles overlap (touching counts).
 inline bool boxes_overlap(const std::array<Vec3, 3>& a, const std::array<Vec3, 3>& b) {
-    for (int axis = 0; axis < 3; ++axis) {
-        const double alo = std::min({a[0][axis], a[1][axis], a[2][axis]});
-        const double ahi = std::max({a[0][axis], a[1][axis], a[2][axis]});
-        const double blo = std::min({b[0][axis], b[1][axis], b[2][axis]});
-        const double bhi = std::max({b[0][axis], b[1][axis], b[2][axis]});
-        if (ahi < blo || bhi < alo) {
-            return false;
-        }
-    }
-    return true;
+    // note: one lambda per axis; Vec3::operator[] branches on every call in this hot test.
+    auto separated = [&](auto coord) {
+        const double alo = std::min({coord(a[0]), coord(a[1]), coord(a[2])});
+        const double ahi = std::max({coord(a[0]), coord(a[1]), coord(a[2])});
+        const double blo = std::min({coord(b[0]), coord(b[1]), coord(b[2])});
+        const double bhi = std::max({coord(b[0]), coord(b[1]), coord(b[2])});
+        return ahi < blo || bhi < alo;
+    };
+    return !separated([](const Vec3& p) { return p.x; }) &&
+           !separated([](const Vec3& p) { return p.y; }) &&
+           !separated([](const Vec3& p) { return p.z; });
 }
 
 /// A uniform grid over triangle boxes: candidate neighbours for the intersection tests. Entries
