@@ -60,7 +60,8 @@ public:
         }
         for (std::size_t i = slot(t);; i = (i + 1) & mask()) {
             const Entry& e = entries_[i];
-            if (e.ids == t) {
+            // note: element by element; std::array's == calls memcmp here.
+            if (e.ids[0] == t[0] && e.ids[1] == t[1] && e.ids[2] == t[2]) {
                 return &e.error;
             }
             if (e.ids[0] == kNone) {
