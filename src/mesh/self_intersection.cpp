@@ -30,6 +30,7 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = Kernel::Point_3;
+using Point2 = Kernel::Point_2;
 using Segment = Kernel::Segment_3;
 using Triangle = Kernel::Triangle_3;
 using Box = CGAL::Box_intersection_d::
@@ -73,8 +74,19 @@ bool faces_intersect(const std::array<const Point*, 3>& hp3,
         const int g_free = !g_shared[0] ? 0 : (!g_shared[1] ? 1 : 2);
         const Point& p = hp(h_free + 1);
         const Point& q = hp(h_free + 2);
-        return CGAL::coplanar(p, q, hp(h_free), gp(g_free)) &&
-               CGAL::coplanar_orientation(p, q, hp(h_free), gp(g_free)) == CGAL::POSITIVE;
+        const Point& r = hp(h_free);
+        const Point& s = gp(g_free);
+        if (p.z() == q.z() && p.z() == r.z() && p.z() == s.z()) {
+            // note: four points of one plane z = c (planar caps, whose pairs the 3D filters cannot
+            // decide: exact coplanarity falls through to exact arithmetic); r and s lie on the
+            // same side of pq in that plane iff they do in its xy projection.
+            const Point2 p2(p.x(), p.y());
+            const Point2 q2(q.x(), q.y());
+            return CGAL::orientation(p2, q2, Point2(s.x(), s.y())) ==
+                   CGAL::orientation(p2, q2, Point2(r.x(), r.y()));
+        }
+        return CGAL::coplanar(p, q, r, s) &&
+               CGAL::coplanar_orientation(p, q, r, s) == CGAL::POSITIVE;
     }
     const Triangle th(hp(0), hp(1), hp(2));
     const Triangle tg(gp(0), gp(1), gp(2));
