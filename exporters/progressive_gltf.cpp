@@ -20,7 +20,6 @@
 #include <unordered_map>
 
 #include <draco/compression/decode.h>
-#include <draco/compression/expert_encode.h>
 #include <draco/mesh/mesh.h>
 #include <nlohmann/json.hpp>
 
@@ -28,6 +27,7 @@
 #include "core/error.h"
 #include "core/file_names.h"
 #include "core/parallel.h"
+#include "exporters/detail/draco_chunk.h"
 #include "exporters/detail/gltf_common.h"
 
 namespace strata {
@@ -260,16 +260,8 @@ struct Chunk {
     int position_id = 0, normal_id = 0, coarse_id = 0;
 };
 
-int bits_for(double extent_steps) {
-    int bits = 1;
-    while (bits < 24 && std::ldexp(1.0, bits) - 1.0 < extent_steps) {
-        ++bits;
-    }
-    return bits;
-}
-
-/// Encodes one cluster with Draco (Edgebreaker, positions on the grid) and checks the decoded
-/// mesh against it.
+/// Encodes one cluster with Draco (detail::encode_draco_chunk) and checks the decoded mesh
+/// against it.
 Chunk encode_chunk(const std::filesystem::path& path,
                    const std::string& where,
                    const MultiresCluster& cluster,
@@ -279,68 +271,27 @@ Chunk encode_chunk(const std::filesystem::path& path,
                    double step,
                    const ProgressiveOptions& options) {
     const std::size_t n = cluster.vertices.size();
-    draco::Mesh mesh;
-    mesh.set_num_points(static_cast<std::uint32_t>(n));
-    const auto add = [&](draco::GeometryAttribute::Type type) {
-        draco::GeometryAttribute attribute;
-        attribute.Init(type, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
-        return mesh.AddAttribute(attribute, true, static_cast<std::uint32_t>(n));
-    };
-    const int position = add(draco::GeometryAttribute::POSITION);
-    const int normal = add(draco::GeometryAttribute::NORMAL);
-    const int coarse = add(draco::GeometryAttribute::GENERIC);
-    std::array<double, 3> lo{}, hi{};
-    lo.fill(std::numeric_limits<double>::infinity());
-    hi.fill(-std::numeric_limits<double>::infinity());
+    detail::DracoChunkInput input;
+    input.step = step;
+    input.normals = normals;
     for (std::size_t i = 0; i < n; ++i) {
-        const draco::AttributeValueIndex index(static_cast<std::uint32_t>(i));
-        const GridPoint& p = points[cluster.vertices[i]];
-        const GridPoint& c = points[cluster.coarse_vertices[i]];
-        mesh.attribute(position)->SetAttributeValue(index, p.v.data());
-        mesh.attribute(normal)->SetAttributeValue(index, normals[i].data());
-        mesh.attribute(coarse)->SetAttributeValue(index, c.v.data());
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min({lo[k], double(p.v[k]), double(c.v[k])});
-            hi[k] = std::max({hi[k], double(p.v[k]), double(c.v[k])});
-        }
+        input.positions.push_back(points[cluster.vertices[i]].v);
+        input.coarse.push_back(points[cluster.coarse_vertices[i]].v);
     }
     for (const auto& t : cluster.triangles) {
-        mesh.AddFace({draco::PointIndex(t[0]), draco::PointIndex(reverse ? t[2] : t[1]),
-                      draco::PointIndex(reverse ? t[1] : t[2])});
+        input.triangles.push_back({t[0], reverse ? t[2] : t[1], reverse ? t[1] : t[2]});
     }
-    double extent = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        extent = std::max(extent, (hi[k] - lo[k]) / step);
-    }
-    const int bits = bits_for(extent);
-    if (std::ldexp(1.0, bits) - 1.0 < extent) {
-        fail(ErrorCode::InvalidInput, path,
-             where + ": spans " + std::to_string(extent) +
-                 " grid steps, more than 2^24 (float positions would lose the grid)");
-    }
-    const float origin[3] = {static_cast<float>(lo[0]), static_cast<float>(lo[1]),
-                             static_cast<float>(lo[2])};
-    const float range = static_cast<float>(step * (std::ldexp(1.0, bits) - 1.0));
-
-    draco::ExpertEncoder encoder(mesh);
-    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
-    const int speed = 10 - std::clamp(options.compression_level, 0, 10);
-    encoder.SetSpeedOptions(speed, speed);
-    encoder.SetAttributeExplicitQuantization(position, bits, 3, origin, range);
-    encoder.SetAttributeExplicitQuantization(coarse, bits, 3, origin, range);
-    encoder.SetAttributePredictionScheme(position, detail::kDracoPositionPrediction);
-    encoder.SetAttributePredictionScheme(coarse, detail::kDracoPositionPrediction);
-    encoder.SetAttributeQuantization(normal, options.normal_bits);
-    draco::EncoderBuffer buffer;
-    const draco::Status status = encoder.EncodeToBuffer(&buffer);
-    if (!status.ok()) {
-        fail(ErrorCode::Internal, path, where + ": Draco encoding failed: " + status.error_msg());
+    detail::DracoChunkBytes encoded;
+    try {
+        encoded = detail::encode_draco_chunk(input, options.compression_level, options.normal_bits);
+    } catch (const Error& e) {
+        fail(e.code(), path, where + ": " + e.what());
     }
     Chunk chunk;
-    chunk.bytes.assign(buffer.data(), buffer.size());
-    chunk.position_id = mesh.attribute(position)->unique_id();
-    chunk.normal_id = mesh.attribute(normal)->unique_id();
-    chunk.coarse_id = mesh.attribute(coarse)->unique_id();
+    chunk.bytes = std::move(encoded.bytes);
+    chunk.position_id = encoded.position_id;
+    chunk.normal_id = encoded.normal_id;
+    chunk.coarse_id = encoded.coarse_id;
 
     // Decode and compare: every decoded triangle is one of the cluster's, same orientation, and
     // every point carries its vertex's coarse position.

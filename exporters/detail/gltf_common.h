@@ -11,8 +11,6 @@
 #include <string>
 #include <unistd.h>
 
-#include <draco/compression/config/compression_shared.h>
-
 #include "core/error.h"
 #include "core/file_names.h"
 
@@ -37,14 +35,6 @@ inline constexpr std::array<double, 16> kPatientToGltf{
     0,     0.001, 0,      0,  // image of +z_LPS
     0,     0,     0,      1,
 };
-
-/// Draco prediction of the progressive chunks' POSITION and _COARSE_POSITION: constrained
-/// multi-parallelogram, which Draco itself picks only at its two slowest speeds, set explicitly
-/// at our compression level 7 (speed 3; Edgebreaker stays the standard one that glTF-only
-/// decoders read, and this scheme is in every decoder build). Measured with scripts/bench-size.sh
-/// on the torso: positions -12 %, coarse positions -29 % against parallelogram.
-inline constexpr draco::PredictionSchemeMethod kDracoPositionPrediction =
-    draco::MESH_PREDICTION_CONSTRAINED_MULTI_PARALLELOGRAM;
 
 /// sRGB-encoded channel in [0, 1] -> linear (IEC 61966-2-1).
 inline double srgb_to_linear(double c) {

@@ -73,12 +73,12 @@
 #include <zlib.h>
 
 #include <draco/compression/decode.h>
-#include <draco/compression/expert_encode.h>
 #include <draco/mesh/mesh.h>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "core/report.h"
+#include "exporters/detail/draco_chunk.h"
 #include "exporters/detail/gltf_common.h"
 #include "exporters/progressive_gltf.h"
 #include "exporters/scene_gltf.h"
@@ -313,35 +313,16 @@ StorageModel storage_model(const MultiresMesh& model, const SliceFrame& frame) {
         const double z = std::nearbyint(p.z / d / s.step) * s.step;
         s.points[v] = {detail::to_float(flip * p.x), detail::to_float(p.y), detail::to_float(z)};
     }
-    std::vector<Vec3> sum(s.points.size());
-    for (const MultiresCluster& cluster : model.clusters) {
-        if (cluster.level != 0) {
-            continue;
-        }
-        for (const auto& t : cluster.triangles) {
-            std::array<std::uint32_t, 3> ids{cluster.vertices[t[0]], cluster.vertices[t[1]],
-                                             cluster.vertices[t[2]]};
-            if (s.reverse) {
-                std::swap(ids[1], ids[2]);
-            }
-            const auto at = [&](std::uint32_t v) {
-                return Vec3{s.points[v][0], s.points[v][1], s.points[v][2]};
-            };
-            const Vec3 a = at(ids[0]);
-            const Vec3 n = cross(at(ids[1]) - a, at(ids[2]) - a);
-            for (std::uint32_t v : ids) {
-                sum[v] = sum[v] + n;
-            }
-        }
-    }
-    s.normals.resize(s.points.size());
-    for (std::size_t v = 0; v < s.points.size(); ++v) {
-        const double length = norm(sum[v]);
-        const Vec3 n =
-            (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * sum[v] : Vec3{0, 0, 1};
-        s.normals[v] = {detail::to_float(n.x), detail::to_float(n.y), detail::to_float(n.z)};
-    }
     s.cluster_normals = progressive_cluster_normals(model, s.points, s.reverse);
+    // level 0: the full-resolution surface's normals, each vertex's in every level-0 cluster
+    s.normals.assign(s.points.size(), Float3{0.0f, 0.0f, 1.0f});
+    for (std::size_t c = 0; c < model.clusters.size(); ++c) {
+        if (model.clusters[c].level == 0) {
+            for (std::size_t i = 0; i < model.clusters[c].vertices.size(); ++i) {
+                s.normals[model.clusters[c].vertices[i]] = s.cluster_normals[c][i];
+            }
+        }
+    }
     return s;
 }
 
@@ -354,123 +335,30 @@ struct Patch {
     std::vector<std::array<std::uint32_t, 3>> triangles;
 };
 
-/// POSITION; + NORMAL; + _COARSE_POSITION (as written); or, as an alternative measured for the
-/// breakdown only, + the coarse position as an offset from POSITION (zero for surviving
-/// vertices), encoded without prediction.
-enum class Attributes { Position, PositionNormal, All, CoarseOffset };
+/// Which attributes a re-encoding carries: POSITION; + NORMAL; + _COARSE_POSITION (as written).
+enum class Attributes { Position, PositionNormal, All };
 
-struct Encoded {
-    std::string bytes;
-    int position_id = -1;
-    int normal_id = -1;
-};
+using Encoded = detail::DracoChunkBytes;
 
-int bits_for(double extent_steps) {
-    int bits = 1;
-    while (bits < 24 && std::ldexp(1.0, bits) - 1.0 < extent_steps) {
-        ++bits;
-    }
-    return bits;
-}
-
-/// Draco bytes of `patch` with `attributes`, with the writer's settings (encode_chunk):
-/// Edgebreaker, compression level 7, positions (and coarse positions) on the grid with origin
-/// and range multiples of the step over the bounds of the encoded positions, predicted by
-/// constrained multi-parallelogram (kDracoPositionPrediction), 10-bit normals.
+/// Draco bytes of `patch` with `attributes`, encoded by the writer's own chunk encoder
+/// (detail::encode_draco_chunk) at the writer's default settings.
 Encoded encode_patch(const StorageModel& s, const Patch& patch, Attributes attributes) {
     const ProgressiveOptions options;
-    const std::size_t n = patch.vertices.size();
-    const bool with_normal = attributes != Attributes::Position;
-    const bool with_coarse = attributes == Attributes::All && !patch.coarse.empty();
-    const bool with_offset = attributes == Attributes::CoarseOffset && !patch.coarse.empty();
-    draco::Mesh mesh;
-    mesh.set_num_points(static_cast<std::uint32_t>(n));
-    const auto add = [&](draco::GeometryAttribute::Type type) {
-        draco::GeometryAttribute attribute;
-        attribute.Init(type, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
-        return mesh.AddAttribute(attribute, true, static_cast<std::uint32_t>(n));
-    };
-    const int position = add(draco::GeometryAttribute::POSITION);
-    const int normal = with_normal ? add(draco::GeometryAttribute::NORMAL) : -1;
-    const int coarse = with_coarse || with_offset ? add(draco::GeometryAttribute::GENERIC) : -1;
-    std::array<double, 3> lo{}, hi{};
-    double offset_lo = 0.0, offset_hi = 0.0;
-    lo.fill(std::numeric_limits<double>::infinity());
-    hi.fill(-std::numeric_limits<double>::infinity());
-    for (std::size_t i = 0; i < n; ++i) {
-        const draco::AttributeValueIndex index(static_cast<std::uint32_t>(i));
-        const Float3& p = s.points[patch.vertices[i]];
-        mesh.attribute(position)->SetAttributeValue(index, p.data());
-        if (with_normal) {
-            mesh.attribute(normal)->SetAttributeValue(index, patch.normals[i].data());
+    detail::DracoChunkInput input;
+    input.step = s.step;
+    for (std::size_t i = 0; i < patch.vertices.size(); ++i) {
+        input.positions.push_back(s.points[patch.vertices[i]]);
+        if (attributes != Attributes::Position) {
+            input.normals.push_back(patch.normals[i]);
         }
-        for (int k = 0; k < 3; ++k) {
-            lo[k] = std::min(lo[k], double(p[k]));
-            hi[k] = std::max(hi[k], double(p[k]));
-        }
-        if (with_coarse) {
-            const Float3& c = s.points[patch.coarse[i]];
-            mesh.attribute(coarse)->SetAttributeValue(index, c.data());
-            for (int k = 0; k < 3; ++k) {
-                lo[k] = std::min(lo[k], double(c[k]));
-                hi[k] = std::max(hi[k], double(c[k]));
-            }
-        }
-        if (with_offset) {
-            const Float3& c = s.points[patch.coarse[i]];
-            Float3 offset{};
-            for (int k = 0; k < 3; ++k) {
-                offset[k] = c[k] - p[k];  // exact: both on the grid
-                offset_lo = std::min(offset_lo, double(offset[k]));
-                offset_hi = std::max(offset_hi, double(offset[k]));
-            }
-            mesh.attribute(coarse)->SetAttributeValue(index, offset.data());
+        if (attributes == Attributes::All && !patch.coarse.empty()) {
+            input.coarse.push_back(s.points[patch.coarse[i]]);
         }
     }
     for (const auto& t : patch.triangles) {
-        mesh.AddFace({draco::PointIndex(t[0]), draco::PointIndex(s.reverse ? t[2] : t[1]),
-                      draco::PointIndex(s.reverse ? t[1] : t[2])});
+        input.triangles.push_back({t[0], s.reverse ? t[2] : t[1], s.reverse ? t[1] : t[2]});
     }
-    double extent = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        extent = std::max(extent, (hi[k] - lo[k]) / s.step);
-    }
-    const int bits = bits_for(extent);
-    const float origin[3] = {static_cast<float>(lo[0]), static_cast<float>(lo[1]),
-                             static_cast<float>(lo[2])};
-    const float range = static_cast<float>(s.step * (std::ldexp(1.0, bits) - 1.0));
-    draco::ExpertEncoder encoder(mesh);
-    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
-    const int speed = 10 - std::clamp(options.compression_level, 0, 10);
-    encoder.SetSpeedOptions(speed, speed);
-    encoder.SetAttributeExplicitQuantization(position, bits, 3, origin, range);
-    encoder.SetAttributePredictionScheme(position, detail::kDracoPositionPrediction);
-    if (with_coarse) {
-        encoder.SetAttributeExplicitQuantization(coarse, bits, 3, origin, range);
-        encoder.SetAttributePredictionScheme(coarse, detail::kDracoPositionPrediction);
-    }
-    if (with_offset) {
-        const int offset_bits = bits_for((offset_hi - offset_lo) / s.step);
-        const float offset_origin[3] = {float(offset_lo), float(offset_lo), float(offset_lo)};
-        encoder.SetAttributeExplicitQuantization(
-            coarse, offset_bits, 3, offset_origin,
-            static_cast<float>(s.step * (std::ldexp(1.0, offset_bits) - 1.0)));
-        encoder.SetAttributePredictionScheme(coarse, draco::PREDICTION_NONE);
-    }
-    if (with_normal) {
-        encoder.SetAttributeQuantization(normal, options.normal_bits);
-    }
-    draco::EncoderBuffer buffer;
-    const draco::Status status = encoder.EncodeToBuffer(&buffer);
-    if (!status.ok()) {
-        throw Error{ErrorCode::Internal,
-                    std::string("Draco encoding failed: ") + status.error_msg()};
-    }
-    Encoded out;
-    out.bytes.assign(buffer.data(), buffer.size());
-    out.position_id = int(mesh.attribute(position)->unique_id());
-    out.normal_id = with_normal ? int(mesh.attribute(normal)->unique_id()) : -1;
-    return out;
+    return detail::encode_draco_chunk(input, options.compression_level, options.normal_bits);
 }
 
 Patch cluster_patch(const StorageModel& s, std::uint32_t c) {
@@ -865,8 +753,7 @@ struct MainRow {
 struct Breakdown {
     std::string name;
     std::size_t chunks_p = 0, chunks_pn = 0, chunks_pnc = 0;  // every chunk re-encoded
-    std::size_t chunks_pno = 0;                   // POSITION + NORMAL + coarse offset (alternative)
-    std::size_t l0_p = 0, l0_pn = 0, l0_pnc = 0;  // level-0 chunks only
+    std::size_t l0_p = 0, l0_pn = 0, l0_pnc = 0;              // level-0 chunks only
     std::size_t one_triangle_chunk = 0;
     std::size_t l0_cluster_vertices = 0, full_vertices = 0;
     std::size_t base_binary = 0;
@@ -961,8 +848,7 @@ void print_breakdown(const std::vector<Breakdown>& rows, const std::vector<MainR
     header << pad("case", 22, true) << " |" << pad("json", 7) << pad("base bin", 9) << " |"
            << pad("pos", 8) << pad("nrm", 8) << pad("coarse", 8) << pad("fixed", 7) << " |"
            << pad("L0 pos", 8) << pad("L0 nrm", 8) << pad("L0 crs", 8) << pad("lv>=1", 8) << " |"
-           << pad("dup", 5) << pad("L0PN/DPN", 9) << pad("L0P/DP", 7) << " |" << pad("c-off", 7)
-           << pad("tot'", 8) << pad("o'/D", 5);
+           << pad("dup", 5) << pad("L0PN/DPN", 9) << pad("L0P/DP", 7);
     out << header.str() << '\n' << std::string(header.str().size(), '-') << '\n';
     for (std::size_t i = 0; i < rows.size(); ++i) {
         const Breakdown& b = rows[i];
@@ -975,21 +861,13 @@ void print_breakdown(const std::vector<Breakdown>& rows, const std::vector<MainR
             << pad(kb(b.l0_pnc - b.l0_pn), 8) << pad(kb(b.chunks_pnc - b.l0_pnc), 8) << " |"
             << pad(ratio(double(b.l0_cluster_vertices), double(b.full_vertices)), 5)
             << pad(ratio(double(b.l0_pn), double(r.draco_pn)), 9)
-            << pad(ratio(double(b.l0_p), double(r.draco_p)), 7) << " |"
-            << pad(kb(b.chunks_pno - b.chunks_pn), 7)
-            << pad(kb(r.ours.total - b.chunks_pnc + b.chunks_pno), 8)
-            << pad(ratio(double(r.ours.total - b.chunks_pnc + b.chunks_pno), double(r.draco_glb)),
-                   5)
-            << '\n';
+            << pad(ratio(double(b.l0_p), double(r.draco_p)), 7) << '\n';
     }
     out << "json: the glTF JSON (DAG, spheres, accessors of every chunk); base bin: the root "
            "clusters' float positions, normals and indices. One-triangle chunk: "
         << (rows.empty() ? 0 : rows.front().one_triangle_chunk)
         << " bytes. L0PN/DPN, L0P/DP: level-0 clusters as separate Draco meshes without "
-           "_COARSE_POSITION over the single-rate mesh, with and without normals.\n"
-           "c-off: what _COARSE_POSITION would cost as an offset from POSITION (zero for surviving "
-           "vertices; no prediction), tot' and o'/D: the total with it (not a format change, a "
-           "measure).\n";
+           "_COARSE_POSITION over the single-rate mesh, with and without normals.\n";
     std::cout << out.str();
 }
 
@@ -1258,7 +1136,6 @@ void run_case(const std::string& spec,
                 const std::size_t bpn =
                     encode_patch(s, patch, Attributes::PositionNormal).bytes.size();
                 const std::size_t bpnc = encode_patch(s, patch, Attributes::All).bytes.size();
-                b.chunks_pno += encode_patch(s, patch, Attributes::CoarseOffset).bytes.size();
                 b.chunks_p += bp;
                 b.chunks_pn += bpn;
                 b.chunks_pnc += bpnc;
