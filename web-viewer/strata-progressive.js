@@ -652,21 +652,23 @@ export async function loadStrataModel(url, { createLoader, pluginOptions = {}, f
     ++requests;
     const partial = response.status === 206;
     const total = partial ? Number(response.headers.get('Content-Range')?.split('/')[1]) : prefix.byteLength;
+    // appends bytes [prefix.byteLength, end) of the file to `prefix` (one Range request)
+    const extendPrefix = async (end) => {
+        const more = await doFetch(absolute, { headers: { Range: `bytes=${prefix.byteLength}-${end - 1}` } });
+        const rest = await more.arrayBuffer();
+        bytesRead += rest.byteLength;
+        ++requests;
+        const joined = new Uint8Array(prefix.byteLength + rest.byteLength);
+        joined.set(new Uint8Array(prefix), 0);
+        joined.set(new Uint8Array(rest), prefix.byteLength);
+        prefix = joined.buffer;
+    };
     const layout = glbLayout(new Uint8Array(prefix, 0, Math.min(20, prefix.byteLength)));
     let data;
     let options = { ...pluginOptions, totalBytes: 0 };
     if (layout !== null && partial) {
         const jsonEnd = layout.jsonOffset + layout.jsonLength;
-        if (prefix.byteLength < jsonEnd) {
-            const more = await doFetch(absolute, { headers: { Range: `bytes=${prefix.byteLength}-${jsonEnd - 1}` } });
-            const rest = await more.arrayBuffer();
-            bytesRead += rest.byteLength;
-            ++requests;
-            const joined = new Uint8Array(prefix.byteLength + rest.byteLength);
-            joined.set(new Uint8Array(prefix), 0);
-            joined.set(new Uint8Array(rest), prefix.byteLength);
-            prefix = joined.buffer;
-        }
+        if (prefix.byteLength < jsonEnd) await extendPrefix(jsonEnd);
         data = new TextDecoder().decode(new Uint8Array(prefix, layout.jsonOffset, layout.jsonLength));
         options.source = { kind: 'glb-range', url: absolute, binOffset: layout.binOffset, length: total, prefix };
         options.totalBytes = total;
@@ -674,16 +676,7 @@ export async function loadStrataModel(url, { createLoader, pluginOptions = {}, f
         data = prefix;  // the whole GLB: in memory
         options.totalBytes = prefix.byteLength;
     } else {
-        if (partial && prefix.byteLength < total) {
-            const more = await doFetch(absolute, { headers: { Range: `bytes=${prefix.byteLength}-${total - 1}` } });
-            const rest = await more.arrayBuffer();
-            bytesRead += rest.byteLength;
-            ++requests;
-            const joined = new Uint8Array(prefix.byteLength + rest.byteLength);
-            joined.set(new Uint8Array(prefix), 0);
-            joined.set(new Uint8Array(rest), prefix.byteLength);
-            prefix = joined.buffer;
-        }
+        if (partial && prefix.byteLength < total) await extendPrefix(total);
         data = new TextDecoder().decode(prefix);
         const json = JSON.parse(data);
         options.totalBytes = total + (json.buffers ?? []).reduce((s, b) => s + (b.uri && !b.uri.startsWith('data:') ? b.byteLength : 0), 0);
