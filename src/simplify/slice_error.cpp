@@ -111,7 +111,6 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
     const double last_i = double(f.nx - 1);
     const double last_j = double(f.ny - 1);
     const std::size_t nx = f.nx;
-    const std::uint32_t* const node_sites = f.node_sites.data();
     const Vec2* const sites = slice.sites.data();
     auto nearest_site = [&](Vec2 a) {
         const double fx = std::floor((a.x - origin_x) / DistanceField::kCellPx + 0.5);
@@ -120,7 +119,7 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
         const double j = std::clamp(fy, 0.0, last_j);
         const auto node =
             static_cast<std::uint32_t>(std::size_t(std::uint32_t(j)) * nx + std::uint32_t(i));
-        return sites[node_sites[node] & ~DistanceField::kInside];
+        return sites[f.closest(node)];
     };
 
     // The smallest bound over the sites of the four field nodes around a for the piece [a, b]
