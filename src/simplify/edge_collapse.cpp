@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <queue>
 #include <string>
@@ -109,6 +110,12 @@ private:
     std::size_t size_ = 0;
 };
 
+/// A contour piece attached to a triangle, with the bound of its distance to it.
+struct Attached {
+    std::uint32_t piece = 0;
+    double distance = 0.0;
+};
+
 Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
     return cross(b - a, c - a);
 }
@@ -119,6 +126,7 @@ public:
               const SliceErrorMeter& meter,
               const CollapseOptions& options)
         : positions_(*problem.positions),
+          pieces_(problem.pieces),
           meter_(meter),
           options_(options),
           cache_(options.error_floor_px),
@@ -163,6 +171,21 @@ public:
             grid_.insert(id, corners(id));
         }
         alive_count_ = triangles_.size();
+        triangle_pieces_.resize(triangles_.size());
+        if (!problem.piece_triangles.empty() && problem.pieces == nullptr) {
+            throw Error(ErrorCode::InvalidInput, "edge collapse: piece attachments without pieces");
+        }
+        for (const auto& [t, piece] : problem.piece_triangles) {
+            if (t >= triangles_.size() || piece >= problem.pieces->size()) {
+                throw Error(ErrorCode::InvalidInput,
+                            "edge collapse: contour piece " + std::to_string(piece) +
+                                " attached to triangle " + std::to_string(t) + " (" +
+                                std::to_string(triangles_.size()) + " triangles, " +
+                                std::to_string(problem.pieces->size()) + " pieces)");
+            }
+            triangle_pieces_[t].push_back(
+                {piece, piece_distance_px((*problem.pieces)[piece], corners(t))});
+        }
         obstacles_ = problem.obstacles;
         for (std::size_t i = 0; i < obstacles_.size(); ++i) {
             for (const std::uint32_t g : obstacles_[i]) {
@@ -219,6 +242,13 @@ public:
                 continue;
             }
             const Tri& lt = triangles_[t];
+            std::vector<Attached>& pieces = triangle_pieces_[t];
+            std::sort(pieces.begin(), pieces.end(),
+                      [](const Attached& a, const Attached& b) { return a.piece < b.piece; });
+            for (const Attached& a : pieces) {
+                result.piece_triangles.emplace_back(std::uint32_t(result.triangles.size()),
+                                                    a.piece);
+            }
             result.triangles.push_back({global_[lt[0]], global_[lt[1]], global_[lt[2]]});
             result.triangle_error_px.push_back(error_[t]);
             result.max_error_px = std::max(result.max_error_px, error_[t]);
@@ -401,10 +431,16 @@ private:
     std::optional<double> cost(std::uint32_t u, std::uint32_t v) const {
         double reached = options_.error_floor_px;
         bool any = false;
+        std::vector<std::array<Vec3, 3>>& moved_corners = moved_corners_;
+        moved_corners.clear();
+        std::vector<std::uint32_t>& own = moved_index_;  // per star triangle, kNone: removed
+        own.clear();
         for (const std::uint32_t t : vertex_triangles_[u]) {
             if (contains(t, v)) {
+                own.push_back(kNone);
                 continue;
             }
+            own.push_back(std::uint32_t(moved_corners.size()));
             const std::array<Vec3, 3> before = corners(t);
             const std::array<Vec3, 3> after = moved(t, u, v);
             const Vec3 n0 = normal_of(before[0], before[1], before[2]);
@@ -421,9 +457,38 @@ private:
             if (reached > options_.max_error_px) {
                 return std::nullopt;
             }
+            moved_corners.push_back(after);
         }
         if (!any) {
             return std::nullopt;
+        }
+        // The contour pieces of u's star move to the nearest changed triangle (their own first).
+        // note: only the largest distance counts, so a piece within `reached` of some triangle
+        // is done.
+        // A point of a moved triangle moves by at most |uv|, so a piece within `reached` - |uv|
+        // of its own (moved) triangle stays within `reached` of it.
+        const double move = norm(position(u) - position(v)) * (1.0 + 1e-12) + 1e-12;
+        const std::vector<std::uint32_t>& star = vertex_triangles_[u];
+        for (std::size_t i = 0; i < star.size(); ++i) {
+            for (const Attached& a : triangle_pieces_[star[i]]) {
+                if (own[i] != kNone && a.distance + move <= reached) {
+                    continue;
+                }
+                const ContourPiece& piece = (*pieces_)[a.piece];
+                double best = std::numeric_limits<double>::infinity();
+                if (own[i] != kNone) {
+                    best = piece_distance_px(piece, moved_corners[own[i]], best);
+                }
+                for (std::uint32_t m = 0; m < moved_corners.size() && best > reached; ++m) {
+                    if (m != own[i]) {
+                        best = std::min(best, piece_distance_px(piece, moved_corners[m], best));
+                    }
+                }
+                reached = std::max(reached, best);
+                if (reached > options_.max_error_px) {
+                    return std::nullopt;
+                }
+            }
         }
         return reached;
     }
@@ -514,6 +579,14 @@ private:
         // candidates need new costs.
         const std::vector<std::uint32_t> touched = neighbours(u);
         std::vector<std::uint32_t> star = vertex_triangles_[u];
+        std::vector<std::pair<Attached, std::uint32_t>> moving;  // (piece, its triangle)
+        for (const std::uint32_t t : star) {
+            for (const Attached& a : triangle_pieces_[t]) {
+                moving.emplace_back(a, t);
+            }
+            triangle_pieces_[t].clear();
+        }
+        std::vector<std::uint32_t> moved_ids;
         for (const std::uint32_t t : star) {
             if (contains(t, v)) {
                 alive_[t] = false;
@@ -535,6 +608,29 @@ private:
             }
             vertex_triangles_[v].push_back(t);
             grid_.insert(t, after);
+            moved_ids.push_back(t);
+        }
+        // Each piece stays on its triangle if that is no farther than before, else moves to the
+        // nearest changed triangle.
+        for (const auto& [a, from] : moving) {
+            const ContourPiece& piece = (*pieces_)[a.piece];
+            double best = std::numeric_limits<double>::infinity();
+            std::uint32_t to = moved_ids.front();
+            if (alive_[from]) {
+                best = piece_distance_px(piece, corners(from));
+                to = from;
+            }
+            if (best > std::max(a.distance, options_.error_floor_px)) {
+                for (const std::uint32_t t : moved_ids) {
+                    const double d = piece_distance_px(piece, corners(t), best);
+                    if (d < best) {
+                        best = d;
+                        to = t;
+                    }
+                }
+            }
+            triangle_pieces_[to].push_back({a.piece, best});
+            error_[to] = std::max(error_[to], best);
         }
         vertex_triangles_[u].clear();
         ++stamp_[u];
@@ -547,6 +643,7 @@ private:
     }
 
     const std::vector<Vec3>& positions_;
+    const std::vector<ContourPiece>* pieces_;
     const SliceErrorMeter& meter_;
     const CollapseOptions& options_;
     mutable SectionCache cache_;
@@ -560,6 +657,11 @@ private:
     std::vector<Tri> triangles_;  ///< local ids
     std::vector<bool> alive_;
     std::vector<double> error_;
+    /// Per triangle: the contour pieces attached to it (ids into *pieces_), whose distance its
+    /// error bound covers.
+    std::vector<std::vector<Attached>> triangle_pieces_;
+    mutable std::vector<std::array<Vec3, 3>> moved_corners_;  ///< scratch of cost()
+    mutable std::vector<std::uint32_t> moved_index_;          ///< scratch of cost()
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     std::priority_queue<Candidate> queue_;

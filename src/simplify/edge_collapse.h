@@ -39,6 +39,13 @@ struct CollapseProblem {
     /// Triangles outside the piece that may be shown together with it (in some cut of the
     /// multiresolution model): no triangle the simplification creates may intersect them.
     std::vector<std::array<std::uint32_t, 3>> obstacles;
+    /// Contour pieces the piece must stay close to (the converse of the meter's error: data to
+    /// surface), null for none. Each is attached to one triangle that bounds its distance.
+    const std::vector<ContourPiece>* pieces = nullptr;
+    /// (index into `triangles`, index into `*pieces`): where each piece of this part of the
+    /// surface is attached. A collapse moves the pieces of the triangles it changes or removes to
+    /// the nearest of the changed ones, and costs at least their distance (piece_distance_px).
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_triangles;
 };
 
 /// What `collapse_edges` did.
@@ -48,11 +55,17 @@ struct CollapseResult {
     /// The collapses in order: vertex `first` removed, its triangles moved to vertex `second`.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> collapses;
     double max_error_px = 0.0;  ///< largest entry of triangle_error_px
+    /// (index into `triangles`, index into the problem's pieces): the pieces' new attachments,
+    /// sorted. A triangle's error bound covers the distance of its pieces.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_triangles;
 };
 
 /// Simplifies a piece of a closed, oriented 2-manifold by half-edge collapses (paper section 7:
 /// no new vertices; the cheapest collapse first, cost = largest error bound of the triangles it
-/// creates, measured against the original contours by `meter`).
+/// creates, measured against the original contours by `meter`, and of the distance from the
+/// contour pieces it moves to the triangles they move to, so that the surface cannot leave the
+/// data behind either: a thin part is not flattened away while its contours are farther from the
+/// rest than the allowed error).
 ///
 /// Preserved: the locked vertices and every edge between two of them (so the piece still fits
 /// any neighbour that kept the same boundary), manifoldness and orientation (link condition,

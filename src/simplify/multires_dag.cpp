@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <numeric>
 #include <string>
@@ -22,6 +23,34 @@ namespace strata {
 namespace {
 
 using Tri = std::array<std::uint32_t, 3>;
+/// (triangle index, contour piece id): where a contour piece is attached.
+using PieceAttachment = std::pair<std::uint32_t, std::uint32_t>;
+
+/// Contour pieces are split until they fit one full-resolution triangle this well (px) ...
+constexpr double kPieceFitPx = 0.01;
+/// ... or are this short (px).
+constexpr double kShortestPiecePx = 1.0 / 16.0;
+
+struct TriHash {
+    std::size_t operator()(const Tri& t) const {
+        std::uint64_t h = std::uint64_t(t[0]) * 0x9e3779b97f4a7c15ull ^
+                          std::uint64_t(t[1]) * 0xc2b2ae3d27d4eb4full ^
+                          std::uint64_t(t[2]) * 0x165667b19e3779f9ull;
+        return std::size_t(h ^ (h >> 29));
+    }
+};
+
+struct PositionHash {
+    std::size_t operator()(const Vec3& p) const {
+        std::uint64_t h = 0;
+        for (const double c : {p.x, p.y, p.z}) {
+            std::uint64_t bits = 0;
+            std::memcpy(&bits, &c, sizeof bits);
+            h = (h ^ bits) * 0x9e3779b97f4a7c15ull;
+        }
+        return std::size_t(h ^ (h >> 29));
+    }
+};
 
 struct Box {
     Vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
@@ -139,8 +168,12 @@ public:
             edge_sum += norm(mesh_.positions[t[0]] - mesh_.positions[t[1]]);
         }
         grid_cell_ = std::max(1e-3, 4.0 * edge_sum / double(std::max<std::size_t>(all.size(), 1)));
+        const std::vector<PieceAttachment> attached = attach_pieces(all);
+        const auto index = index_of(all);
         for (std::vector<Tri>& part : split(all)) {
-            frontier_.push_back(add_cluster(0, -1, std::move(part)));
+            const std::uint32_t c = add_cluster(0, -1, part);
+            attach_to_cluster(c, part, index, attached);
+            frontier_.push_back(c);
         }
     }
 
@@ -201,6 +234,154 @@ private:
         return n;
     }
 
+    /// Attaches the meter's contour pieces to the full-resolution `triangles`: each to the triangle
+    /// nearest to both its ends (piece_distance_px). Where that is clearly worse than the ends' own
+    /// nearest triangles (the surface does not run along the simplified edge: it follows the
+    /// original contour there, or splits the edge), the piece is replaced by its original edges,
+    /// and those by their halves. Fills `pieces_` and raises the full-resolution bound to the
+    /// largest distance. Returns (index into `triangles`, piece) pairs, sorted.
+    std::vector<PieceAttachment> attach_pieces(const std::vector<Tri>& triangles) {
+        std::vector<PieceAttachment> attached;
+        if (triangles.empty()) {
+            return attached;
+        }
+        auto corners = [&](std::uint32_t t) {
+            const Tri& ids = triangles[t];
+            return std::array<Vec3, 3>{mesh_.positions[ids[0]], mesh_.positions[ids[1]],
+                                       mesh_.positions[ids[2]]};
+        };
+        detail::TriangleGrid grid(grid_cell_);
+        Box all;
+        for (std::uint32_t t = 0; t < triangles.size(); ++t) {
+            grid.insert(t, corners(t));
+            for (const std::uint32_t v : triangles[t]) {
+                all.add(mesh_.positions[v]);
+            }
+        }
+        const double reach = norm(all.hi - all.lo);
+        std::vector<std::uint32_t> seen(triangles.size(), 0);
+        std::uint32_t query = 0;
+        // note: most pieces are mesh edges (the surface runs through the simplified contours):
+        // the triangles around the vertex at a piece's first end settle them without the grid
+        std::unordered_map<Vec3, std::uint32_t, PositionHash> vertex_at;
+        std::vector<std::vector<std::uint32_t>> around(mesh_.positions.size());
+        for (std::uint32_t t = 0; t < triangles.size(); ++t) {
+            for (const std::uint32_t v : triangles[t]) {
+                vertex_at.emplace(mesh_.positions[v], v);
+                around[v].push_back(t);
+            }
+        }
+        // (piece, the meter's piece it comes from, or kOriginal once it is original edges)
+        constexpr std::uint32_t kOriginal = 0xffffffffu;
+        std::vector<std::pair<ContourPiece, std::uint32_t>> work;
+        for (std::size_t i = meter_.contour_pieces().size(); i-- > 0;) {
+            work.emplace_back(meter_.contour_pieces()[i], std::uint32_t(i));
+        }
+        double worst = 0.0;
+        while (!work.empty()) {
+            const auto [piece, source] = work.back();
+            work.pop_back();
+            double best = std::numeric_limits<double>::infinity();
+            double nearest_a = best, nearest_b = best;
+            std::uint32_t best_triangle = 0;
+            auto offer = [&](std::uint32_t t) {
+                const std::array<Vec3, 3> c = corners(t);
+                const double da = point_triangle_distance_px(piece.a, c);
+                const double db = point_triangle_distance_px(piece.b, c);
+                if (piece.deviation_px + std::max(da, db) < best) {
+                    best = piece.deviation_px + std::max(da, db);
+                    best_triangle = t;
+                }
+                nearest_a = std::min(nearest_a, da);
+                nearest_b = std::min(nearest_b, db);
+            };
+            if (const auto a = vertex_at.find(piece.a); a != vertex_at.end()) {
+                const auto b = vertex_at.find(piece.b);
+                for (const std::uint32_t t : around[a->second]) {
+                    const Tri& ids = triangles[t];
+                    if (b != vertex_at.end() &&
+                        (ids[0] == b->second || ids[1] == b->second || ids[2] == b->second)) {
+                        // the piece is an edge of t
+                        best = piece.deviation_px;
+                        best_triangle = t;
+                        nearest_a = nearest_b = 0.0;
+                        break;
+                    }
+                    offer(t);
+                }
+            }
+            for (double r = 1.0; best - piece.deviation_px > kPieceFitPx; r *= 2.0) {
+                Vec3 lo = piece.a, hi = piece.a;
+                for (int a = 0; a < 3; ++a) {
+                    lo[a] = std::min(piece.a[a], piece.b[a]) - r;
+                    hi[a] = std::max(piece.a[a], piece.b[a]) + r;
+                }
+                ++query;
+                grid.query({lo, hi, hi}, [&](std::uint32_t t) {
+                    if (seen[t] == query) {
+                        return;
+                    }
+                    seen[t] = query;
+                    offer(t);
+                });
+                // note: a triangle within r of both ends meets the box, so `best` is final
+                if (best - piece.deviation_px <= r || r > reach) {
+                    break;
+                }
+            }
+            if (!(best < std::numeric_limits<double>::infinity())) {
+                continue;  // note: no triangle at all (not reached: triangles is not empty)
+            }
+            const double fit = best - piece.deviation_px - std::max(nearest_a, nearest_b);
+            if (fit > kPieceFitPx && source != kOriginal) {
+                const std::vector<ContourPiece> edges = meter_.original_edges(source);
+                for (std::size_t e = edges.size(); e-- > 0;) {
+                    work.emplace_back(edges[e], kOriginal);
+                }
+                continue;
+            }
+            if (fit > kPieceFitPx && norm(piece.b - piece.a) > kShortestPiecePx) {
+                const Vec3 mid = 0.5 * (piece.a + piece.b);
+                work.emplace_back(ContourPiece{mid, piece.b, piece.deviation_px}, kOriginal);
+                work.emplace_back(ContourPiece{piece.a, mid, piece.deviation_px}, kOriginal);
+                continue;
+            }
+            attached.emplace_back(best_triangle, std::uint32_t(pieces_.size()));
+            pieces_.push_back(piece);
+            worst = std::max(worst, best);
+        }
+        mesh_.full_resolution_error_px = std::max(mesh_.full_resolution_error_px, worst);
+        std::sort(attached.begin(), attached.end());
+        return attached;
+    }
+
+    /// Position of every triangle in `triangles`.
+    static std::unordered_map<Tri, std::uint32_t, TriHash> index_of(
+        const std::vector<Tri>& triangles) {
+        std::unordered_map<Tri, std::uint32_t, TriHash> index;
+        index.reserve(triangles.size());
+        for (std::uint32_t i = 0; i < triangles.size(); ++i) {
+            index.emplace(triangles[i], i);
+        }
+        return index;
+    }
+
+    /// Records, for cluster `c` made of `part`, the pieces `attached` (sorted pairs of an index
+    /// into the triangles `index` was made of, and a piece) holds for its triangles.
+    void attach_to_cluster(std::uint32_t c,
+                           const std::vector<Tri>& part,
+                           const std::unordered_map<Tri, std::uint32_t, TriHash>& index,
+                           const std::vector<PieceAttachment>& attached) {
+        std::vector<PieceAttachment>& out = cluster_pieces_[c];
+        for (std::uint32_t j = 0; j < part.size() && !attached.empty(); ++j) {
+            const std::uint32_t i = index.at(part[j]);
+            auto it = std::lower_bound(attached.begin(), attached.end(), PieceAttachment{i, 0});
+            for (; it != attached.end() && it->first == i; ++it) {
+                out.emplace_back(j, it->second);
+            }
+        }
+    }
+
     std::vector<std::vector<Tri>> split(std::vector<Tri>& triangles) const {
         const std::size_t size = std::max<std::size_t>(options_.cluster_triangles, 1);
         const std::size_t parts = std::max<std::size_t>(1, (triangles.size() + size / 2) / size);
@@ -235,6 +416,7 @@ private:
         c.bounds = bounding_sphere(mesh_.positions, c.vertices);
         mesh_.clusters.push_back(std::move(c));
         boxes_.push_back(box);
+        cluster_pieces_.emplace_back();
         return std::uint32_t(mesh_.clusters.size() - 1);
     }
 
@@ -369,6 +551,10 @@ private:
         for (const std::uint32_t c : members) {
             const double e = cluster_error(c);
             attempt.children_error = std::max(attempt.children_error, e);
+            const auto offset = std::uint32_t(problem.triangles.size());
+            for (const auto& [t, piece] : cluster_pieces_[c]) {
+                problem.piece_triangles.emplace_back(offset + t, piece);
+            }
             for (const Tri& t : global_triangles(c)) {
                 problem.triangles.push_back(t);
                 problem.triangle_error_px.push_back(e);
@@ -422,6 +608,7 @@ private:
             }
         }
 
+        problem.pieces = &pieces_;
         CollapseOptions collapse;
         collapse.target_triangles = std::size_t(double(before) * options_.keep_fraction);
         collapse.error_floor_px = attempt.children_error;
@@ -500,8 +687,10 @@ private:
             }
         }
         mesh_.groups.push_back(group);
+        const auto index = index_of(result.triangles);
         for (std::vector<Tri>& part : split(result.triangles)) {
-            const std::uint32_t c = add_cluster(level, id, std::move(part));
+            const std::uint32_t c = add_cluster(level, id, part);
+            attach_to_cluster(c, part, index, result.piece_triangles);
             mesh_.groups[std::size_t(id)].produced.push_back(c);
             next.push_back(c);
         }
@@ -521,7 +710,10 @@ private:
     const SliceErrorMeter& meter_;
     const MultiresOptions& options_;
     MultiresMesh mesh_;
-    std::vector<Box> boxes_;  ///< per cluster
+    std::vector<Box> boxes_;            ///< per cluster
+    std::vector<ContourPiece> pieces_;  ///< the label's contour pieces (attach_pieces)
+    /// Per cluster: (triangle index in the cluster, piece) for the pieces attached to it.
+    std::vector<std::vector<PieceAttachment>> cluster_pieces_;
     std::vector<std::uint32_t> frontier_;
     double grid_cell_ = 1.0;  ///< cell of the grids over a level's new triangles
 };

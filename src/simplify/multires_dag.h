@@ -40,8 +40,10 @@ struct MultiresGroup {
     std::uint32_t level = 0;              ///< level of the produced clusters (>= 1)
     std::vector<std::uint32_t> consumed;  ///< finer clusters, ids into MultiresMesh::clusters
     std::vector<std::uint32_t> produced;  ///< coarser clusters
-    /// Error bound (px, slice space) of the produced clusters against the original contours,
-    /// made monotone: never below the error of any group that produced a consumed cluster.
+    /// Error bound (px, slice space) of the produced clusters against the original contours, in
+    /// both directions (their slice sections to the contours, and the contour pieces attached to
+    /// them to their triangles), made monotone: never below the error of any group that produced
+    /// a consumed cluster.
     double error_px = 0.0;
     /// Contains the produced and consumed clusters and the bounds of every group below, so a
     /// projected error (error / distance to the sphere) is monotone along the DAG too.
@@ -113,7 +115,9 @@ struct MultiresOptions {
 /// preferring clusters of different parents so that old group borders end up inside; each group
 /// is simplified by `collapse_edges` with its outer border locked, against every existing
 /// triangle it could be drawn with. `full_resolution_error_px` is the bound the caller declares
-/// for the surface itself (the contour simplification tolerance achieved, e.g. 0.5 px).
+/// for the surface itself (the contour simplification tolerance achieved, e.g. 0.5 px); it is
+/// raised to the distance of the contour pieces (SliceErrorMeter::contour_pieces) from the
+/// full-resolution triangles they are attached to, where that is larger.
 /// Deterministic. \throw Error{InvalidInput} when the surface is not an oriented manifold.
 MultiresMesh build_multires_mesh(const TriMesh& surface,
                                  const SliceErrorMeter& meter,

@@ -89,6 +89,108 @@ SliceErrorMeter::SliceErrorMeter(const SliceContours& contours,
             }
         }
     }
+    for (std::size_t k = 0; k < contours.slices.size(); ++k) {
+        const double z = double(k) * slice_spacing_px;
+        for (const Contour& contour : contours.slices[k].contours) {
+            if (contour.label != label || contour.points.empty()) {
+                continue;
+            }
+            const std::vector<std::uint32_t>& kept = contour.simplified;
+            if (kept.size() < 2 || kept.size() != contour.edge_deviation_px.size()) {
+                // note: not simplified: every original edge is its own piece
+                for (std::size_t i = 0; i < contour.points.size(); ++i) {
+                    const Vec2 a = contour.points[i];
+                    const Vec2 b = contour.points[(i + 1) % contour.points.size()];
+                    pieces_.push_back({{a.x, a.y, z}, {b.x, b.y, z}, 0.0});
+                    sources_.push_back({&contour, z, std::uint32_t(i), 1});
+                }
+                continue;
+            }
+            const auto n = std::uint32_t(contour.points.size());
+            for (std::size_t e = 0; e < kept.size(); ++e) {
+                const std::uint32_t first = kept[e], last = kept[(e + 1) % kept.size()];
+                const Vec2 a = contour.points[first];
+                const Vec2 b = contour.points[last];
+                pieces_.push_back({{a.x, a.y, z}, {b.x, b.y, z}, contour.edge_deviation_px[e]});
+                sources_.push_back({&contour, z, first, (last + n - first) % n});
+            }
+        }
+    }
+}
+
+std::vector<ContourPiece> SliceErrorMeter::original_edges(std::size_t i) const {
+    const PieceSource& source = sources_.at(i);
+    const std::vector<Vec2>& points = source.contour->points;
+    std::vector<ContourPiece> edges;
+    edges.reserve(source.count);
+    for (std::uint32_t e = 0; e < source.count; ++e) {
+        const Vec2 a = points[(source.first + e) % points.size()];
+        const Vec2 b = points[(source.first + e + 1) % points.size()];
+        edges.push_back({{a.x, a.y, source.z}, {b.x, b.y, source.z}, 0.0});
+    }
+    return edges;
+}
+
+namespace {
+
+/// Distance from p to triangle abc (closest point by Voronoi regions: Ericson, "Real-time
+/// collision detection", 5.1.5).
+double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+    const Vec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) {
+        return norm(ap);
+    }
+    const Vec3 bp = p - b;
+    const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) {
+        return norm(bp);
+    }
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        const double v = d1 / (d1 - d3);
+        return norm(ap - v * ab);
+    }
+    const Vec3 cp = p - c;
+    const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) {
+        return norm(cp);
+    }
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        const double w = d2 / (d2 - d6);
+        return norm(ap - w * ac);
+    }
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return norm(bp - w * (c - b));
+    }
+    const double denom = va + vb + vc;
+    if (!(denom > 0.0)) {
+        // note: degenerate triangle: its points are on its edges
+        return std::min({norm(ap), norm(bp), norm(cp)});
+    }
+    const double v = vb / denom, w = vc / denom;
+    return norm(ap - v * ab - w * ac);
+}
+
+}  // namespace
+
+double point_triangle_distance_px(const Vec3& p, const std::array<Vec3, 3>& triangle) {
+    // note: a hair above the rounding of the distance, so the result stays a bound
+    return point_triangle_distance(p, triangle[0], triangle[1], triangle[2]) * (1.0 + 1e-12) +
+           1e-12;
+}
+
+double piece_distance_px(const ContourPiece& piece,
+                         const std::array<Vec3, 3>& triangle,
+                         double cutoff) {
+    const double a = piece.deviation_px + point_triangle_distance_px(piece.a, triangle);
+    if (a >= cutoff) {
+        return a;
+    }
+    return std::max(a, piece.deviation_px + point_triangle_distance_px(piece.b, triangle));
 }
 
 double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px) const {

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -24,6 +25,27 @@ private:
     double known_px_ = 0.0;
     std::unordered_map<std::uint64_t, double> bounds_;  ///< key: smaller id << 32 | larger id
 };
+
+/// A straight piece of one label's contour on one slice, in slice space (z = k d), standing for
+/// the original contour points near it: each of them lies within `deviation_px` of the segment
+/// ab. Pieces are the contour stage's simplified edges (with their measured deviation), or parts
+/// of them.
+struct ContourPiece {
+    Vec3 a;
+    Vec3 b;
+    double deviation_px = 0.0;
+};
+
+/// Bound (px, a hair above the exact value) on the distance from p to the triangle (3D).
+double point_triangle_distance_px(const Vec3& p, const std::array<Vec3, 3>& triangle);
+
+/// Bound (px) on the distance from every original contour point that `piece` stands for to the
+/// triangle `triangle` (3D, slice space): deviation + the larger of the ends' distances (the
+/// distance to a triangle is convex along a segment, so the ends bound the whole piece).
+/// With `cutoff`: once the bound is known to reach it, a value >= cutoff is returned early.
+double piece_distance_px(const ContourPiece& piece,
+                         const std::array<Vec3, 3>& triangle,
+                         double cutoff = std::numeric_limits<double>::infinity());
 
 /// Measures how far triangles of one label's surface stray from that label's original contours
 /// (paper section 7.1), in slice space: x, y in px on the contour grid, z = k * d for slice k.
@@ -68,6 +90,14 @@ public:
     /// Error bound (px) of triangle abc lying in the plane of slice k: distance to its inside.
     double cap_error_px(std::uint32_t k, const std::array<Vec2, 3>& triangle) const;
 
+    /// The label's contours as pieces (one per simplified edge, every slice): the data a surface
+    /// must stay close to in the converse direction (contour to surface, see piece_distance_px).
+    const std::vector<ContourPiece>& contour_pieces() const { return pieces_; }
+
+    /// The original contour edges that contour_pieces()[i] stands for, each a piece of deviation
+    /// 0 (for a surface that follows the original contour rather than the simplified one).
+    std::vector<ContourPiece> original_edges(std::size_t i) const;
+
     double slice_spacing_px() const { return spacing_; }
     std::uint32_t slice_count() const { return static_cast<std::uint32_t>(slices_.size()); }
 
@@ -82,6 +112,15 @@ private:
                           double known_px) const;
 
     std::vector<Slice> slices_;
+    /// Where a piece comes from: original points [first, first + count] (cyclic) of a contour.
+    struct PieceSource {
+        const Contour* contour = nullptr;
+        double z = 0.0;
+        std::uint32_t first = 0;
+        std::uint32_t count = 0;  ///< original edges spanned
+    };
+    std::vector<ContourPiece> pieces_;
+    std::vector<PieceSource> sources_;  ///< per piece
     double spacing_ = 1.0;
 };
 

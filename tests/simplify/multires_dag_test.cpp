@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <map>
 #include <set>
 #include <string>
@@ -158,6 +159,57 @@ TEST(MultiresDag, GroupsShrinkToTheKeepFractionAtMost) {
             const MultiresCut cut = select_cut_at_level(m, level);
             test::expect_valid_cut(cut_mesh(m, cut), r, 0, genera, cut.error_px);
         }
+    }
+}
+
+TEST(MultiresDag, ThinSpikeIsKeptWhileTheBoundIsShorterThanIt) {
+    // A disc (radius 12 px) on slices 1-6 with a spike 2 px wide reaching to x = 70 on slices
+    // 2-5. Flattening the spike keeps every section close to the contours (the one-sided
+    // error stays about 1 px), so only the converse direction (contour to surface) stops it.
+    constexpr double kTip = 70.0;
+    SliceStack stack;
+    stack.width = 80;
+    stack.height = 60;
+    stack.depth = 8;
+    stack.labels.assign(std::size_t(stack.width) * stack.height * stack.depth, 0);
+    for (std::uint32_t k = 1; k <= 6; ++k) {
+        for (std::uint32_t j = 0; j < stack.height; ++j) {
+            for (std::uint32_t i = 0; i < stack.width; ++i) {
+                const double x = i + 0.5 - 20.0, y = j + 0.5 - 30.0;
+                const bool disc = x * x + y * y <= 144.0;
+                const bool spike = k >= 2 && k <= 5 && (j == 29 || j == 30) && i >= 30 && i < kTip;
+                if (disc || spike) {
+                    stack.labels[(std::size_t(k) * stack.height + j) * stack.width + i] = 1;
+                }
+            }
+        }
+    }
+    stack.index_to_world.linear = {{{1, 0, 0}, {0, 1, 0}, {0, 0, 2}}};
+    stack.label_table.push_back({1, "spike", {200, 80, 80}});
+    stack.source = "test";
+    Report report;
+    ReconstructOptions options;
+    options.multires.cluster_triangles = 32;
+    options.multires.root_triangles = 16;
+    const Reconstruction r = reconstruct(stack, options, report);
+    ASSERT_EQ(r.models.size(), 1u);
+    const MultiresMesh& m = r.models[0];
+    ASSERT_GT(level_count(m), 3u);
+    const std::vector<int> genera = test::sorted_genera(check_mesh(r.surfaces[0].mesh));
+    for (std::uint32_t level = 0; level < level_count(m); ++level) {
+        SCOPED_TRACE("level " + std::to_string(level));
+        const MultiresCut cut = select_cut_at_level(m, level);
+        const TriMesh mesh = cut_mesh(m, cut);
+        test::expect_valid_cut(mesh, r, 0, genera, cut.error_px);
+        // the spike's tip is a contour point: the surface must reach within the bound of it
+        double reach = 0.0;
+        for (const Vec3& p : mesh.positions) {
+            reach = std::max(reach, p.x);
+        }
+        EXPECT_GE(reach, kTip - cut.error_px)
+            << mesh.triangles.size() << " triangles, declared " << cut.error_px << " px";
+        std::cout << "level " << level << ": " << mesh.triangles.size() << " triangles, declared "
+                  << cut.error_px << " px, reaches x = " << reach << "\n";
     }
 }
 
