@@ -28,12 +28,12 @@ using Polygon = std::vector<Vec2>;
 constexpr double kSpacing = 2.0;  // slice spacing d, px
 
 std::string describe(const CutErrorReport& r) {
-    std::string out = "section " + std::to_string(r.max_section_px) + " px, cap " +
-                      std::to_string(r.max_cap_px) + " px, worst slice " +
-                      std::to_string(r.worst_slice) + " at (" + std::to_string(r.worst_point.x) +
-                      ", " + std::to_string(r.worst_point.y) + "), " +
-                      std::to_string(r.slices_met) + " slices met, " +
-                      std::to_string(r.cap_triangles) + " cap triangles\n";
+    std::string out =
+        "section " + std::to_string(r.max_section_px) + " px, cap " + std::to_string(r.max_cap_px) +
+        " px, coverage " + std::to_string(r.max_coverage_px) + " px, worst slice " +
+        std::to_string(r.worst_slice) + " at (" + std::to_string(r.worst_point.x) + ", " +
+        std::to_string(r.worst_point.y) + "), " + std::to_string(r.slices_met) + " slices met, " +
+        std::to_string(r.cap_triangles) + " cap triangles\n";
     for (const std::string& p : r.problems) {
         out += "  " + p + "\n";
     }
@@ -173,6 +173,34 @@ TEST(CutError, WallOffsetIsMeasuredExactly) {
     EXPECT_NEAR(off.worst_point.y, -0.4, 0.01) << describe(off);
 }
 
+TEST(CutError, ContourPartTheMeshLostIsMeasuredByCoverage) {
+    // the prism covers the square on every slice; slice 1 also has a small square 20-22 px to
+    // the right of it that no triangle reaches
+    const SliceContours contours =
+        stack_of({{rectangle_contour(0, 0, 10, 10)},
+                  {rectangle_contour(0, 0, 10, 10), rectangle_contour(30, 4, 32, 6)},
+                  {rectangle_contour(0, 0, 10, 10)}});
+    const TriMesh prism = stacked_prism({kSquare, kSquare, kSquare}, {0, kSpacing, 2 * kSpacing});
+    const CutErrorReport r = measure_cut_error(prism, contours, 1, kSpacing);
+    EXPECT_EQ(r.max_section_px, 0.0) << describe(r);
+    EXPECT_EQ(r.max_cap_px, 0.0) << describe(r);
+    EXPECT_NEAR(r.max_coverage_px, 22.0, 1e-9) << describe(r);
+    EXPECT_EQ(r.worst_slice, 1u);
+    EXPECT_NEAR(r.worst_point.x, 32.0, 1e-9) << describe(r);
+    EXPECT_EQ(r.max_px(), r.max_coverage_px);
+
+    // without the small square, the prism covers every contour point
+    const SliceContours square = stack_of({{rectangle_contour(0, 0, 10, 10)},
+                                           {rectangle_contour(0, 0, 10, 10)},
+                                           {rectangle_contour(0, 0, 10, 10)}});
+    EXPECT_EQ(measure_cut_error(prism, square, 1, kSpacing).max_coverage_px, 0.0);
+    // a prism 1.5 px narrower on the right: the contour's right side is 1.5 px away
+    Polygon narrow = kSquare;
+    narrow[1].x = narrow[2].x = 8.5;
+    const TriMesh inner = stacked_prism({narrow, narrow, narrow}, {0, kSpacing, 2 * kSpacing});
+    EXPECT_NEAR(measure_cut_error(inner, square, 1, kSpacing).max_coverage_px, 1.5, 1e-9);
+}
+
 TEST(CutError, CapPartlyOutsideSquareGivesApexDistance) {
     // one triangle in the plane of slice 0, its apex 3 px above the square's top edge
     TriMesh mesh;
@@ -185,7 +213,11 @@ TEST(CutError, CapPartlyOutsideSquareGivesApexDistance) {
     // an isolated triangle has no section (its in-plane edges have one coplanar face)
     EXPECT_EQ(r.max_section_px, 0.0) << describe(r);
     EXPECT_EQ(r.cap_triangles, 1u);
-    EXPECT_NEAR(r.worst_point.y, 13.0, 0.05) << describe(r);
+    // the square's top corners are farthest from the triangle: 46 / sqrt(130) px from the slanted
+    // edges (the distance to a convex set is convex along each side, so corners are the sup)
+    const double corner = 46.0 / std::sqrt(130.0);
+    EXPECT_NEAR(r.max_coverage_px, corner, 1e-9) << describe(r);
+    EXPECT_NEAR(r.worst_point.y, 10.0, 1e-9) << describe(r);
 
     // inside the square it measures nothing
     mesh.positions[2] = {5, 9, 0};

@@ -8,6 +8,11 @@
 // a query visits square rings of cells around the point's (clamped) cell and stops once the ring
 // distance reaches the best distance found, so the answer is exact. Inside tests: even-odd
 // crossing count of a ray towards +x, over the segments of the point's row of cells.
+//
+// Coverage (contour -> mesh): the mesh's triangles in a uniform 3D grid; a point query visits
+// cubic shells of cells around the point's (clamped) cell until the shell distance reaches the
+// best distance found. Point-triangle distance: the distance to the plane when the point projects
+// inside the triangle, else the nearest of the three edges.
 
 #include <algorithm>
 #include <array>
@@ -15,6 +20,7 @@
 #include <cstddef>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "core/error.h"
 #include "support/slice_section.h"
@@ -27,6 +33,7 @@ constexpr double kCellPx = 4.0;          // grid cell of the distance queries
 constexpr double kCapEdgePx = 0.05;      // cap pieces are not split below this edge length
 constexpr double kTouchStepPx = 0.02;    // sampling step along touching edges
 constexpr double kSectionStepPx = 0.01;  // sampling step when locating the worst section point
+constexpr double kCoverStepPx = 0.02;    // coverage pieces are not split below this length
 
 struct Segment {
     Vec2 a;
@@ -187,6 +194,205 @@ private:
     std::vector<std::uint32_t> cell_start_, cell_segments_;
     std::vector<std::uint32_t> row_start_, row_segments_;
 };
+
+/// Distance from p to segment ab in 3D.
+double point_segment_distance_3d(const Vec3& p, const Vec3& a, const Vec3& b) {
+    const Vec3 w = b - a;
+    const double ww = dot(w, w);
+    const double u = ww > 0 ? std::clamp(dot(p - a, w) / ww, 0.0, 1.0) : 0.0;
+    return norm(p - (a + u * w));
+}
+
+/// Distance from p to the triangle abc (a closed set in 3D).
+double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+    const Vec3 n = cross(b - a, c - a);
+    const double nn = dot(n, n);
+    if (nn > 0) {
+        const double h = dot(p - a, n) / nn;
+        const Vec3 q = p - h * n;  // projection onto the plane
+        const bool inside = dot(cross(b - a, q - a), n) >= 0 && dot(cross(c - b, q - b), n) >= 0 &&
+                            dot(cross(a - c, q - c), n) >= 0;
+        if (inside) {
+            return std::abs(h) * std::sqrt(nn);
+        }
+    }
+    return std::min({point_segment_distance_3d(p, a, b), point_segment_distance_3d(p, b, c),
+                     point_segment_distance_3d(p, c, a)});
+}
+
+/// The triangles of a mesh, indexed for exact point distance queries.
+class MeshIndex {
+public:
+    explicit MeshIndex(const TriMesh& mesh) : mesh_(mesh) {
+        const auto n = static_cast<std::uint32_t>(mesh.positions.size());
+        for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+            const auto& t = mesh.triangles[f];
+            bool ok = t[0] < n && t[1] < n && t[2] < n;
+            for (int i = 0; ok && i < 3; ++i) {
+                const Vec3 p = mesh.positions[t[i]];
+                ok = std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+            }
+            if (ok) {
+                faces_.push_back(f);
+            }
+        }
+        if (faces_.empty()) {
+            return;
+        }
+        Vec3 lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
+        for (std::uint32_t f : faces_) {
+            for (std::uint32_t v : mesh.triangles[f]) {
+                for (int a = 0; a < 3; ++a) {
+                    lo[a] = std::min(lo[a], mesh.positions[v][a]);
+                    hi[a] = std::max(hi[a], mesh.positions[v][a]);
+                }
+            }
+        }
+        origin_ = lo;
+        for (int a = 0; a < 3; ++a) {
+            size_[a] = std::max(1, static_cast<int>(std::floor((hi[a] - lo[a]) / kCellPx)) + 1);
+        }
+        std::vector<std::array<int, 6>> ranges(faces_.size());
+        cell_start_.assign(cell_count() + 1, 0);
+        for (std::size_t i = 0; i < faces_.size(); ++i) {
+            const auto& t = mesh.triangles[faces_[i]];
+            for (int a = 0; a < 3; ++a) {
+                const double mn = std::min(
+                    {mesh.positions[t[0]][a], mesh.positions[t[1]][a], mesh.positions[t[2]][a]});
+                const double mx = std::max(
+                    {mesh.positions[t[0]][a], mesh.positions[t[1]][a], mesh.positions[t[2]][a]});
+                ranges[i][a] = cell(a, mn);
+                ranges[i][3 + a] = cell(a, mx);
+            }
+            for_range(ranges[i], [&](std::size_t c) { ++cell_start_[c + 1]; });
+        }
+        for (std::size_t c = 0; c < cell_count(); ++c) {
+            cell_start_[c + 1] += cell_start_[c];
+        }
+        cell_faces_.resize(cell_start_.back());
+        std::vector<std::uint32_t> fill(cell_start_.begin(), cell_start_.end() - 1);
+        for (std::size_t i = 0; i < faces_.size(); ++i) {
+            for_range(ranges[i], [&](std::size_t c) { cell_faces_[fill[c]++] = faces_[i]; });
+        }
+    }
+
+    bool empty() const { return faces_.empty(); }
+
+    /// Exact distance from p to the mesh and a triangle where it is reached (infinite, 0 when the
+    /// mesh has no valid triangle).
+    std::pair<double, std::uint32_t> nearest(const Vec3& p) const {
+        std::pair<double, std::uint32_t> best{kInf, 0};
+        if (faces_.empty()) {
+            return best;
+        }
+        const std::array<int, 3> home{cell(0, p.x), cell(1, p.y), cell(2, p.z)};
+        const int most = std::max({size_[0], size_[1], size_[2]});
+        for (int r = 0; r <= most; ++r) {
+            // the shell of cells at Chebyshev distance r from home
+            std::array<int, 6> range{};
+            for (int a = 0; a < 3; ++a) {
+                range[a] = std::max(0, home[a] - r);
+                range[3 + a] = std::min(size_[a] - 1, home[a] + r);
+            }
+            for (int x = range[0]; x <= range[3]; ++x) {
+                for (int y = range[1]; y <= range[4]; ++y) {
+                    for (int z = range[2]; z <= range[5]; ++z) {
+                        const int shell = std::max(
+                            {std::abs(x - home[0]), std::abs(y - home[1]), std::abs(z - home[2])});
+                        if (shell != r) {
+                            continue;
+                        }
+                        const std::size_t c = index(x, y, z);
+                        for (std::uint32_t i = cell_start_[c]; i < cell_start_[c + 1]; ++i) {
+                            const std::uint32_t f = cell_faces_[i];
+                            const auto& t = mesh_.triangles[f];
+                            const double d = point_triangle_distance(p, mesh_.positions[t[0]],
+                                                                     mesh_.positions[t[1]],
+                                                                     mesh_.positions[t[2]]);
+                            if (d < best.first) {
+                                best = {d, f};
+                            }
+                        }
+                    }
+                }
+            }
+            // note: every unvisited cell is at least r cells away along some axis, and the point
+            // lies in (or beyond, on the far side of) its home cell, so it is >= r * kCellPx away
+            if (best.first <= r * kCellPx) {
+                break;
+            }
+        }
+        return best;
+    }
+
+    double distance(const Vec3& p, std::uint32_t f) const {
+        const auto& t = mesh_.triangles[f];
+        return point_triangle_distance(p, mesh_.positions[t[0]], mesh_.positions[t[1]],
+                                       mesh_.positions[t[2]]);
+    }
+
+private:
+    int cell(int axis, double v) const {
+        const double c = std::floor((v - origin_[axis]) / kCellPx);
+        return static_cast<int>(std::clamp(c, 0.0, static_cast<double>(size_[axis] - 1)));
+    }
+    std::size_t cell_count() const {
+        return std::size_t(size_[0]) * std::size_t(size_[1]) * std::size_t(size_[2]);
+    }
+    std::size_t index(int x, int y, int z) const {
+        return (std::size_t(z) * std::size_t(size_[1]) + std::size_t(y)) * std::size_t(size_[0]) +
+               std::size_t(x);
+    }
+    template <class Fn>
+    void for_range(const std::array<int, 6>& r, Fn&& fn) const {
+        for (int x = r[0]; x <= r[3]; ++x) {
+            for (int y = r[1]; y <= r[4]; ++y) {
+                for (int z = r[2]; z <= r[5]; ++z) {
+                    fn(index(x, y, z));
+                }
+            }
+        }
+    }
+
+    const TriMesh& mesh_;
+    std::vector<std::uint32_t> faces_;  ///< valid triangles
+    Vec3 origin_;
+    std::array<int, 3> size_{1, 1, 1};
+    std::vector<std::uint32_t> cell_start_, cell_faces_;
+};
+
+/// Largest distance to the mesh found on the contour piece pq (slice space) by branch and bound;
+/// `dp`, `fp`: p's distance and nearest triangle, likewise for q. Raises `worst` (in (x, y)).
+void search_coverage(const MeshIndex& index,
+                     const Vec3& p,
+                     const Vec3& q,
+                     std::pair<double, std::uint32_t> dp,
+                     std::pair<double, std::uint32_t> dq,
+                     double& worst,
+                     Vec3& worst_point) {
+    if (dp.first > worst) {
+        worst = dp.first;
+        worst_point = p;
+    }
+    if (dq.first > worst) {
+        worst = dq.first;
+        worst_point = q;
+    }
+    // note: the distance to one triangle is convex along the piece, so the piece is within the
+    // larger of its ends' distances to either end's nearest triangle; and 1-Lipschitz, so within
+    // (dp + dq + |pq|) / 2
+    const double length = norm(q - p);
+    const double bound = std::min({std::max(dp.first, index.distance(q, dp.second)),
+                                   std::max(dq.first, index.distance(p, dq.second)),
+                                   0.5 * (dp.first + dq.first + length)});
+    if (bound <= worst || length <= kCoverStepPx) {
+        return;
+    }
+    const Vec3 m = 0.5 * (p + q);
+    const auto dm = index.nearest(m);
+    search_coverage(index, p, m, dp, dm, worst, worst_point);
+    search_coverage(index, m, q, dm, dq, worst, worst_point);
+}
 
 struct Worst {
     double distance = 0;
@@ -447,9 +653,46 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
         }
         section_worst.worst.point = located.point;
     }
+    // coverage: every original contour point of the label against the whole mesh
+    const MeshIndex mesh_index(mesh);
+    double cover = 0;
+    Vec3 cover_point;
+    std::uint32_t cover_slice = 0;
+    for (std::uint32_t k = 0; k < slice_count; ++k) {
+        const double z = k * slice_spacing_px;
+        const double before = cover;
+        for (const auto& polygon : original_polygons(contours.slices[k], label)) {
+            if (polygon.empty()) {
+                continue;
+            }
+            if (mesh_index.empty()) {
+                cover = kInf;
+                cover_point = {polygon[0].x, polygon[0].y, z};
+                break;
+            }
+            std::vector<std::pair<double, std::uint32_t>> nearest(polygon.size());
+            for (std::size_t i = 0; i < polygon.size(); ++i) {
+                nearest[i] = mesh_index.nearest({polygon[i].x, polygon[i].y, z});
+            }
+            for (std::size_t i = 0; i < polygon.size(); ++i) {
+                const std::size_t j = (i + 1) % polygon.size();
+                search_coverage(mesh_index, {polygon[i].x, polygon[i].y, z},
+                                {polygon[j].x, polygon[j].y, z}, nearest[i], nearest[j], cover,
+                                cover_point);
+            }
+        }
+        if (cover > before) {
+            cover_slice = k;
+        }
+    }
+    report.max_coverage_px = cover;
+
     const bool cap_wins =
         cap_worst.set && (!section_worst.set || report.max_cap_px > report.max_section_px);
-    if (cap_wins) {
+    if (cover > std::max(report.max_section_px, report.max_cap_px)) {
+        report.worst_slice = cover_slice;
+        report.worst_point = xy(cover_point);
+    } else if (cap_wins) {
         report.worst_slice = cap_worst.slice;
         report.worst_point = cap_worst.worst.point;
     } else if (section_worst.set) {

@@ -23,6 +23,11 @@ struct CutErrorReport {
     /// Sup over the points of in-plane (cap) triangles of the distance to their slice's inside
     /// region; sampled, at most 0.03 px below the true sup (see `measure_cut_error`).
     double max_cap_px = 0;
+    /// The converse direction: sup over the points of the original contour polylines of the label
+    /// (every slice) of their distance (3D, slice space) to the mesh, i.e. how far the data lies
+    /// from the surface. Branch and bound, at most 0.01 px below the true sup. Infinite when the
+    /// label has a contour and the mesh has no triangle.
+    double max_coverage_px = 0;
     std::uint32_t worst_slice = 0;  ///< slice of max_px() (0 when nothing was measured)
     /// A point (px) on that slice where max_px() is reached (for the section: the best of samples
     /// every 0.01 px, so within 0.005 px of the maximum).
@@ -32,11 +37,12 @@ struct CutErrorReport {
     /// e.g. "slice 3 (z = 6): the mesh meets the plane (12 triangles), label 1 has no contour".
     std::vector<std::string> problems;
 
-    double max_px() const { return std::max(max_section_px, max_cap_px); }
+    double max_px() const { return std::max({max_section_px, max_cap_px, max_coverage_px}); }
 };
 
 /// Measures how far the surface `mesh` of `label` is from that label's original contours, slice
-/// by slice: for every input slice plane z = k d (k < contours.slices.size()) the mesh meets,
+/// by slice, in both directions. From the mesh to the data: for every input slice plane z = k d
+/// (k < contours.slices.size()) the mesh meets,
 /// - walls: every point of the section (the boundary of mesh ∩ plane as defined by
 ///   `compare_slice_section`, slice_section.h), every in-plane mesh edge where the surface only
 ///   touches the plane, and every in-plane vertex outside the caps is measured against the
@@ -44,6 +50,8 @@ struct CutErrorReport {
 /// - caps: every point of a triangle with its three vertices in the plane is measured against
 ///   the inside region of slice k (even-odd interior of those polylines; inside counts 0).
 /// A point is in the plane when |p.z - z| <= 1e-9 max(1, |z|), as in slice_section.h.
+/// From the data to the mesh (`max_coverage_px`): every point of every original polyline of
+/// `label`, at z = k d, against every triangle of the mesh (3D distance).
 ///
 /// `mesh`: slice space (x, y in px on the contour grid, z = k * `slice_spacing_px`), any
 /// triangles (need not be closed); `contours`: the contour stage's output, whose original points
@@ -54,10 +62,12 @@ struct CutErrorReport {
 /// 0.01 px low; they are rare: a full-resolution surface has none). Caps are searched by branch
 /// and bound over 4-way subdivisions of each triangle down to edges of 0.05 px, sampling the
 /// vertices of the smallest pieces: since the distance is 1-Lipschitz, the result is at most
-/// 0.05 / sqrt(3) < 0.03 px below the true sup. Both are lower estimates at worst, so a test
-/// asserting measured <= declared bound never fails through the oracle.
-/// Example: a cap triangle over a square region whose apex is 3 px outside it gives
-/// max_cap_px = 3.
+/// 0.05 / sqrt(3) < 0.03 px below the true sup. Coverage is searched by branch and bound over
+/// halvings of each contour segment: a piece is dropped when the larger of its ends' distances to
+/// one triangle (the distance to a triangle is convex along a segment) cannot exceed the largest
+/// distance found, and sampled once its pieces are 0.02 px long. All are lower estimates at worst,
+/// so a test asserting measured <= declared bound never fails through the oracle. Example: a cap
+/// triangle over a square region whose apex is 3 px outside it gives max_cap_px = 3.
 ///
 /// A plane the mesh meets (a vertex in it or a triangle across it) where the label has no
 /// contour is a problem and makes max_section_px infinite. A triangle with a vertex index out of
