@@ -36,7 +36,9 @@ struct Candidate {
     std::uint32_t u = 0;  ///< local vertex removed
     std::uint32_t v = 0;  ///< local vertex kept
     std::uint32_t stamp = 0;
-    bool exact = false;  ///< `cost` is the collapse's cost, not only a lower bound
+    /// What `cost` is: a lower bound (the floor), the bound of the new triangles' sections (a
+    /// lower bound too), or the collapse's cost (with the contour pieces' distances).
+    enum Stage : std::uint8_t { kFloor, kSections, kExact } stage = kFloor;
 
     /// Min-heap order on (cost, u, v).
     friend bool operator<(const Candidate& a, const Candidate& b) {
@@ -216,15 +218,26 @@ public:
             if (!topology_allows(c.u, c.v)) {
                 continue;
             }
-            if (!c.exact) {
-                // Lazy evaluation: the cost is read only now; the collapse goes ahead if nothing
-                // left in the queue can be cheaper, else it waits with its real cost.
-                const std::optional<double> exact = cost(c.u, c.v);
+            if (c.stage != Candidate::kExact) {
+                // Lazy evaluation: the cost is read only now, the sections first, then the contour
+                // pieces; the collapse goes ahead if nothing left in the queue can be cheaper,
+                // else it waits with what is known of its cost.
+                const bool sections_known = c.stage == Candidate::kSections;
+                const std::optional<double> known =
+                    sections_known ? std::optional<double>(c.cost) : cost(c.u, c.v, false);
+                if (!known || *known > options_.max_error_px) {
+                    continue;
+                }
+                if (!sections_known && !queue_.empty() && *known > queue_.top().cost) {
+                    queue_.push({*known, c.u, c.v, c.stamp, Candidate::kSections});
+                    continue;
+                }
+                const std::optional<double> exact = cost(c.u, c.v, true);
                 if (!exact) {
                     continue;
                 }
                 if (!queue_.empty() && *exact > queue_.top().cost) {
-                    queue_.push({*exact, c.u, c.v, c.stamp, true});
+                    queue_.push({*exact, c.u, c.v, c.stamp, Candidate::kExact});
                     continue;
                 }
                 if (*exact > options_.max_error_px) {
@@ -426,9 +439,10 @@ private:
         return true;
     }
 
-    /// Cost of collapsing u onto v (max error bound of the changed triangles), or nothing when
-    /// the collapse folds or degenerates a triangle.
-    std::optional<double> cost(std::uint32_t u, std::uint32_t v) const {
+    /// Cost of collapsing u onto v (max error bound of the changed triangles, with the distances
+    /// of the contour pieces they take when `pieces`), or nothing when the collapse folds or
+    /// degenerates a triangle.
+    std::optional<double> cost(std::uint32_t u, std::uint32_t v, bool pieces) const {
         double reached = options_.error_floor_px;
         bool any = false;
         std::vector<std::array<Vec3, 3>>& moved_corners = moved_corners_;
@@ -462,6 +476,9 @@ private:
         if (!any) {
             return std::nullopt;
         }
+        if (!pieces) {
+            return reached;
+        }
         // The contour pieces of u's star move to the nearest changed triangle (their own first).
         // note: only the largest distance counts, so a piece within `reached` of some triangle
         // is done.
@@ -477,11 +494,12 @@ private:
                 const ContourPiece& piece = (*pieces_)[a.piece];
                 double best = std::numeric_limits<double>::infinity();
                 if (own[i] != kNone) {
-                    best = piece_distance_px(piece, moved_corners[own[i]], best);
+                    best = piece_distance_px(piece, moved_corners[own[i]], best, reached);
                 }
                 for (std::uint32_t m = 0; m < moved_corners.size() && best > reached; ++m) {
                     if (m != own[i]) {
-                        best = std::min(best, piece_distance_px(piece, moved_corners[m], best));
+                        best = std::min(best,
+                                        piece_distance_px(piece, moved_corners[m], best, reached));
                     }
                 }
                 reached = std::max(reached, best);
@@ -515,7 +533,7 @@ private:
         }
         // note: every collapse costs at least the floor; the real cost is read when popped.
         for (const std::uint32_t v : neighbours(u)) {
-            queue_.push({options_.error_floor_px, u, v, stamp_[u], false});
+            queue_.push({options_.error_floor_px, u, v, stamp_[u], Candidate::kFloor});
         }
     }
 
@@ -616,13 +634,14 @@ private:
             const ContourPiece& piece = (*pieces_)[a.piece];
             double best = std::numeric_limits<double>::infinity();
             std::uint32_t to = moved_ids.front();
+            const double floor = options_.error_floor_px;
             if (alive_[from]) {
-                best = piece_distance_px(piece, corners(from));
+                best = piece_distance_px(piece, corners(from), best, floor);
                 to = from;
             }
-            if (best > std::max(a.distance, options_.error_floor_px)) {
+            if (best > std::max(a.distance, floor)) {
                 for (const std::uint32_t t : moved_ids) {
-                    const double d = piece_distance_px(piece, corners(t), best);
+                    const double d = piece_distance_px(piece, corners(t), best, floor);
                     if (d < best) {
                         best = d;
                         to = t;

@@ -271,15 +271,11 @@ private:
                 around[v].push_back(t);
             }
         }
-        // (piece, the meter's piece it comes from, or kOriginal once it is original edges)
-        constexpr std::uint32_t kOriginal = 0xffffffffu;
-        std::vector<std::pair<ContourPiece, std::uint32_t>> work;
-        for (std::size_t i = meter_.contour_pieces().size(); i-- > 0;) {
-            work.emplace_back(meter_.contour_pieces()[i], std::uint32_t(i));
-        }
+        std::vector<ContourPiece> work(meter_.contour_pieces().rbegin(),
+                                       meter_.contour_pieces().rend());
         double worst = 0.0;
         while (!work.empty()) {
-            const auto [piece, source] = work.back();
+            const ContourPiece piece = work.back();
             work.pop_back();
             double best = std::numeric_limits<double>::infinity();
             double nearest_a = best, nearest_b = best;
@@ -333,22 +329,21 @@ private:
                 continue;  // note: no triangle at all (not reached: triangles is not empty)
             }
             const double fit = best - piece.deviation_px - std::max(nearest_a, nearest_b);
-            if (fit > kPieceFitPx && source != kOriginal) {
-                const std::vector<ContourPiece> edges = meter_.original_edges(source);
-                for (std::size_t e = edges.size(); e-- > 0;) {
-                    work.emplace_back(edges[e], kOriginal);
-                }
+            if (fit > kPieceFitPx && piece.points != nullptr) {
+                const std::vector<ContourPiece> edges = piece.original_edges();
+                work.insert(work.end(), edges.rbegin(), edges.rend());
                 continue;
             }
             if (fit > kPieceFitPx && norm(piece.b - piece.a) > kShortestPiecePx) {
                 const Vec3 mid = 0.5 * (piece.a + piece.b);
-                work.emplace_back(ContourPiece{mid, piece.b, piece.deviation_px}, kOriginal);
-                work.emplace_back(ContourPiece{piece.a, mid, piece.deviation_px}, kOriginal);
+                work.push_back({mid, piece.b, piece.deviation_px});
+                work.push_back({piece.a, mid, piece.deviation_px});
                 continue;
             }
             attached.emplace_back(best_triangle, std::uint32_t(pieces_.size()));
             pieces_.push_back(piece);
-            worst = std::max(worst, best);
+            // note: the original points may lie closer than the capsule around the piece says
+            worst = std::max(worst, piece_distance_px(piece, corners(best_triangle)));
         }
         mesh_.full_resolution_error_px = std::max(mesh_.full_resolution_error_px, worst);
         std::sort(attached.begin(), attached.end());

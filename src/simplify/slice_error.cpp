@@ -102,7 +102,6 @@ SliceErrorMeter::SliceErrorMeter(const SliceContours& contours,
                     const Vec2 a = contour.points[i];
                     const Vec2 b = contour.points[(i + 1) % contour.points.size()];
                     pieces_.push_back({{a.x, a.y, z}, {b.x, b.y, z}, 0.0});
-                    sources_.push_back({&contour, z, std::uint32_t(i), 1});
                 }
                 continue;
             }
@@ -111,24 +110,29 @@ SliceErrorMeter::SliceErrorMeter(const SliceContours& contours,
                 const std::uint32_t first = kept[e], last = kept[(e + 1) % kept.size()];
                 const Vec2 a = contour.points[first];
                 const Vec2 b = contour.points[last];
-                pieces_.push_back({{a.x, a.y, z}, {b.x, b.y, z}, contour.edge_deviation_px[e]});
-                sources_.push_back({&contour, z, first, (last + n - first) % n});
+                pieces_.push_back({{a.x, a.y, z},
+                                   {b.x, b.y, z},
+                                   contour.edge_deviation_px[e],
+                                   &contour.points,
+                                   first,
+                                   (last + n - first) % n});
             }
         }
     }
 }
 
-std::vector<ContourPiece> SliceErrorMeter::original_edges(std::size_t i) const {
-    const PieceSource& source = sources_.at(i);
-    const std::vector<Vec2>& points = source.contour->points;
-    std::vector<ContourPiece> edges;
-    edges.reserve(source.count);
-    for (std::uint32_t e = 0; e < source.count; ++e) {
-        const Vec2 a = points[(source.first + e) % points.size()];
-        const Vec2 b = points[(source.first + e + 1) % points.size()];
-        edges.push_back({{a.x, a.y, source.z}, {b.x, b.y, source.z}, 0.0});
+std::vector<ContourPiece> ContourPiece::original_edges() const {
+    if (points == nullptr) {
+        return {*this};
     }
-    return edges;
+    std::vector<ContourPiece> out;
+    out.reserve(edges);
+    for (std::uint32_t e = 0; e < edges; ++e) {
+        const Vec2 p = (*points)[(first + e) % points->size()];
+        const Vec2 q = (*points)[(first + e + 1) % points->size()];
+        out.push_back({{p.x, p.y, a.z}, {q.x, q.y, a.z}, 0.0});
+    }
+    return out;
 }
 
 namespace {
@@ -185,12 +189,27 @@ double point_triangle_distance_px(const Vec3& p, const std::array<Vec3, 3>& tria
 
 double piece_distance_px(const ContourPiece& piece,
                          const std::array<Vec3, 3>& triangle,
-                         double cutoff) {
-    const double a = piece.deviation_px + point_triangle_distance_px(piece.a, triangle);
-    if (a >= cutoff) {
-        return a;
+                         double cutoff,
+                         double good_enough) {
+    // note: every bound below is at least the distance of each end
+    const double da = point_triangle_distance_px(piece.a, triangle);
+    if (da >= cutoff) {
+        return piece.deviation_px + da;
     }
-    return std::max(a, piece.deviation_px + point_triangle_distance_px(piece.b, triangle));
+    const double ends = std::max(da, point_triangle_distance_px(piece.b, triangle));
+    const double capsule = piece.deviation_px + ends;
+    if (capsule <= good_enough || piece.points == nullptr || piece.deviation_px == 0.0 ||
+        ends >= cutoff) {
+        return capsule;
+    }
+    // note: the original points between the ends
+    double reached = ends;
+    const std::vector<Vec2>& points = *piece.points;
+    for (std::uint32_t e = 1; e < piece.edges && reached < cutoff; ++e) {
+        const Vec2 p = points[(piece.first + e) % points.size()];
+        reached = std::max(reached, point_triangle_distance_px({p.x, p.y, piece.a.z}, triangle));
+    }
+    return std::min(capsule, reached);
 }
 
 double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px) const {

@@ -34,6 +34,14 @@ struct ContourPiece {
     Vec3 a;
     Vec3 b;
     double deviation_px = 0.0;
+    /// The original points it stands for, when known: points[first], ..., points[first + edges]
+    /// (indices modulo the size: contours are closed), a first and b last. Null: a and b only.
+    const std::vector<Vec2>* points = nullptr;
+    std::uint32_t first = 0;
+    std::uint32_t edges = 0;
+
+    /// The original edges it stands for, each a piece of deviation 0 (itself without `points`).
+    std::vector<ContourPiece> original_edges() const;
 };
 
 /// Bound (px, a hair above the exact value) on the distance from p to the triangle (3D).
@@ -41,11 +49,15 @@ double point_triangle_distance_px(const Vec3& p, const std::array<Vec3, 3>& tria
 
 /// Bound (px) on the distance from every original contour point that `piece` stands for to the
 /// triangle `triangle` (3D, slice space): deviation + the larger of the ends' distances (the
-/// distance to a triangle is convex along a segment, so the ends bound the whole piece).
-/// With `cutoff`: once the bound is known to reach it, a value >= cutoff is returned early.
+/// distance to a triangle is convex along a segment, so the ends bound the whole piece); where
+/// that exceeds `good_enough` and the piece knows its original points, the largest of their
+/// distances instead, if smaller (convexity again: the original polyline is bounded by its
+/// points). With `cutoff`: once the bound is known to reach it, a value >= cutoff is returned
+/// early.
 double piece_distance_px(const ContourPiece& piece,
                          const std::array<Vec3, 3>& triangle,
-                         double cutoff = std::numeric_limits<double>::infinity());
+                         double cutoff = std::numeric_limits<double>::infinity(),
+                         double good_enough = -std::numeric_limits<double>::infinity());
 
 /// Measures how far triangles of one label's surface stray from that label's original contours
 /// (paper section 7.1), in slice space: x, y in px on the contour grid, z = k * d for slice k.
@@ -94,10 +106,6 @@ public:
     /// must stay close to in the converse direction (contour to surface, see piece_distance_px).
     const std::vector<ContourPiece>& contour_pieces() const { return pieces_; }
 
-    /// The original contour edges that contour_pieces()[i] stands for, each a piece of deviation
-    /// 0 (for a surface that follows the original contour rather than the simplified one).
-    std::vector<ContourPiece> original_edges(std::size_t i) const;
-
     double slice_spacing_px() const { return spacing_; }
     std::uint32_t slice_count() const { return static_cast<std::uint32_t>(slices_.size()); }
 
@@ -112,15 +120,7 @@ private:
                           double known_px) const;
 
     std::vector<Slice> slices_;
-    /// Where a piece comes from: original points [first, first + count] (cyclic) of a contour.
-    struct PieceSource {
-        const Contour* contour = nullptr;
-        double z = 0.0;
-        std::uint32_t first = 0;
-        std::uint32_t count = 0;  ///< original edges spanned
-    };
     std::vector<ContourPiece> pieces_;
-    std::vector<PieceSource> sources_;  ///< per piece
     double spacing_ = 1.0;
 };
 
