@@ -873,8 +873,9 @@ def run_table(args):
         f"peak MB: max RSS of each process (/usr/bin/time -v); the python peer's own getrusage "
         f"says {v_inrss:.0f} MB (python, numpy, the VTK libraries and the labelmap included).",
         "bound mm: strata's declared bound, largest over the objects: the contour tolerance at "
-        "full resolution, the cut's error bound otherwise (one-sided: slice sections against the "
-        "input contours, not against the true surface).",
+        "full resolution, the cut's error bound otherwise (both directions between the surface "
+        "and the input contours: slice sections to contours, contour points to the surface; "
+        "not against the true surface, which is unknown between slices).",
     ]
     if es:
         notes.append(
