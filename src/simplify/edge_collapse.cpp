@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <queue>
@@ -150,6 +151,7 @@ public:
         vertex_triangles_.resize(n);
         locked_.assign(n, false);
         stamp_.assign(n, 0);
+        pending_.assign(n, false);
         neighbours_.resize(n);
         neighbours_stamp_.assign(n, kNone);
         for (const std::uint32_t g : problem.locked) {
@@ -206,7 +208,33 @@ public:
         for (std::uint32_t u = 0; u < global_.size(); ++u) {
             push_candidates(u);
         }
-        while (alive_count_ > options_.target_triangles && !queue_.empty()) {
+        while (alive_count_ > options_.target_triangles) {
+            if (!floor_vertices_.empty()) {
+                // The candidates of u at the floor, in (u, v) order: every queued candidate costs
+                // more than the floor, and none is added before one of them collapses (u goes).
+                const std::uint32_t u = floor_vertices_.top();
+                floor_vertices_.pop();
+                pending_[u] = false;
+                if (vertex_triangles_[u].empty()) {
+                    continue;
+                }
+                if (options_.error_floor_px > options_.max_error_px) {
+                    break;
+                }
+                const std::vector<std::uint32_t>& nu = neighbours(u);
+                for (std::size_t i = 0; i < nu.size(); ++i) {
+                    const std::uint32_t v = nu[i];
+                    const Candidate c{options_.error_floor_px, u, v, stamp_[u], Candidate::kFloor};
+                    if (try_collapse(c, i + 1 < nu.size())) {
+                        result.collapses.emplace_back(global_[u], global_[v]);
+                        break;  // u is gone, and with it nu's entry
+                    }
+                }
+                continue;
+            }
+            if (queue_.empty()) {
+                break;
+            }
             const Candidate c = queue_.top();
             queue_.pop();
             if (c.stamp != stamp_[c.u] || vertex_triangles_[c.u].empty()) {
@@ -215,40 +243,9 @@ public:
             if (c.cost > options_.max_error_px) {
                 break;
             }
-            if (!topology_allows(c.u, c.v)) {
-                continue;
+            if (try_collapse(c, false)) {
+                result.collapses.emplace_back(global_[c.u], global_[c.v]);
             }
-            if (c.stage != Candidate::kExact) {
-                // Lazy evaluation: the cost is read only now, the sections first, then the contour
-                // pieces; the collapse goes ahead if nothing left in the queue can be cheaper,
-                // else it waits with what is known of its cost.
-                const bool sections_known = c.stage == Candidate::kSections;
-                const std::optional<double> known =
-                    sections_known ? std::optional<double>(c.cost) : cost(c.u, c.v, false);
-                if (!known || *known > options_.max_error_px) {
-                    continue;
-                }
-                if (!sections_known && !queue_.empty() && *known > queue_.top().cost) {
-                    queue_.push({*known, c.u, c.v, c.stamp, Candidate::kSections});
-                    continue;
-                }
-                const std::optional<double> exact = cost(c.u, c.v, true);
-                if (!exact) {
-                    continue;
-                }
-                if (!queue_.empty() && *exact > queue_.top().cost) {
-                    queue_.push({*exact, c.u, c.v, c.stamp, Candidate::kExact});
-                    continue;
-                }
-                if (*exact > options_.max_error_px) {
-                    continue;
-                }
-            }
-            if (creates_intersection(c.u, c.v)) {
-                continue;
-            }
-            apply(c.u, c.v);
-            result.collapses.emplace_back(global_[c.u], global_[c.v]);
         }
         for (std::size_t t = 0; t < triangles_.size(); ++t) {
             if (!alive_[t]) {
@@ -527,13 +524,65 @@ private:
         return error;
     }
 
+    /// The least cost a waiting candidate may have (floor candidates first: `more_floor` when the
+    /// caller holds more of them), or nothing when none waits.
+    std::optional<double> waiting_cost(bool more_floor) const {
+        if (more_floor || !floor_vertices_.empty()) {
+            return options_.error_floor_px;
+        }
+        if (queue_.empty()) {
+            return std::nullopt;
+        }
+        return queue_.top().cost;
+    }
+
+    /// Collapses c.u onto c.v if allowed and nothing waiting can be cheaper (lazy evaluation: the
+    /// cost is read only now, the sections first, then the contour pieces; a candidate that may
+    /// lose to a waiting one is queued again with what is known of its cost). True: collapsed.
+    bool try_collapse(const Candidate& c, bool more_floor) {
+        if (!topology_allows(c.u, c.v)) {
+            return false;
+        }
+        if (c.stage != Candidate::kExact) {
+            const bool sections_known = c.stage == Candidate::kSections;
+            const std::optional<double> known =
+                sections_known ? std::optional<double>(c.cost) : cost(c.u, c.v, false);
+            if (!known || *known > options_.max_error_px) {
+                return false;
+            }
+            const std::optional<double> waiting = waiting_cost(more_floor);
+            if (!sections_known && waiting && *known > *waiting) {
+                queue_.push({*known, c.u, c.v, c.stamp, Candidate::kSections});
+                return false;
+            }
+            const std::optional<double> exact = cost(c.u, c.v, true);
+            if (!exact) {
+                return false;
+            }
+            if (waiting && *exact > *waiting) {
+                queue_.push({*exact, c.u, c.v, c.stamp, Candidate::kExact});
+                return false;
+            }
+            if (*exact > options_.max_error_px) {
+                return false;
+            }
+        }
+        if (creates_intersection(c.u, c.v)) {
+            return false;
+        }
+        apply(c.u, c.v);
+        return true;
+    }
+
     void push_candidates(std::uint32_t u) {
         if (locked_[u] || vertex_triangles_[u].empty()) {
             return;
         }
-        // note: every collapse costs at least the floor; the real cost is read when popped.
-        for (const std::uint32_t v : neighbours(u)) {
-            queue_.push({options_.error_floor_px, u, v, stamp_[u], Candidate::kFloor});
+        // note: every collapse costs at least the floor; the real costs are read when u is
+        // popped, from its star then (one entry per vertex: its candidates wait together).
+        if (!pending_[u]) {
+            pending_[u] = true;
+            floor_vertices_.push(u);
         }
     }
 
@@ -683,7 +732,11 @@ private:
     mutable std::vector<std::uint32_t> moved_index_;          ///< scratch of cost()
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
+    /// Candidates whose cost is read: more than the floor each.
     std::priority_queue<Candidate> queue_;
+    /// Vertices whose candidates are all at the floor (smallest id first), and which are in it.
+    std::priority_queue<std::uint32_t, std::vector<std::uint32_t>, std::greater<>> floor_vertices_;
+    std::vector<bool> pending_;
     mutable std::vector<std::vector<std::uint32_t>> neighbours_;  ///< see neighbours()
     mutable std::vector<std::uint32_t> neighbours_stamp_;         ///< stamp of each list
     std::vector<std::uint32_t> seen_;
