@@ -465,9 +465,11 @@ double SliceErrorMeter::triangle_error(const std::array<Vec3, 3>& triangle,
             const std::uint64_t key = std::uint64_t(a) << 32 | b;
             auto it = cache->bounds_.find(key);
             if (it == cache->bounds_.end()) {
-                it = cache->bounds_
-                         .emplace(key, segment_error_px(k, ends[0], ends[n == 1 ? 0 : 1],
-                                                        cache->known_px()))
+                // note: walked from the smaller id's end, so the bound stored does not depend on
+                // which triangle reads the edge first (the walk's pieces depend on its direction).
+                const Vec2 from = ends[(*ids)[first] <= (*ids)[second] ? 0 : n - 1];
+                const Vec2 to = ends[(*ids)[first] <= (*ids)[second] ? n - 1 : 0];
+                it = cache->bounds_.emplace(key, segment_error_px(k, from, to, cache->known_px()))
                          .first;
             }
             reached = std::max(reached, it->second);
