@@ -441,12 +441,14 @@ private:
     /// degenerates a triangle.
     std::optional<double> cost(std::uint32_t u, std::uint32_t v, bool pieces) const {
         double reached = options_.error_floor_px;
-        bool any = false;
         std::vector<std::array<Vec3, 3>>& moved_corners = moved_corners_;
         moved_corners.clear();
         std::vector<std::uint32_t>& own = moved_index_;  // per star triangle, kNone: removed
         own.clear();
-        for (const std::uint32_t t : vertex_triangles_[u]) {
+        const std::vector<std::uint32_t>& star = vertex_triangles_[u];
+        // note: every fold is ruled out before any error is read (folds are common, and the
+        // errors are the expensive part).
+        for (const std::uint32_t t : star) {
             if (contains(t, v)) {
                 own.push_back(kNone);
                 continue;
@@ -463,15 +465,19 @@ private:
             if (dot(n0, n1) < std::max(options_.min_normal_cos, 1e-12) * l0 * l1) {
                 return std::nullopt;
             }
-            reached = std::max(reached, moved_error(t, u, v, after));
-            any = true;
+            moved_corners.push_back(after);
+        }
+        if (moved_corners.empty()) {
+            return std::nullopt;
+        }
+        for (std::size_t i = 0; i < star.size(); ++i) {
+            if (own[i] == kNone) {
+                continue;
+            }
+            reached = std::max(reached, moved_error(star[i], u, v, moved_corners[own[i]]));
             if (reached > options_.max_error_px) {
                 return std::nullopt;
             }
-            moved_corners.push_back(after);
-        }
-        if (!any) {
-            return std::nullopt;
         }
         if (!pieces) {
             return reached;
@@ -482,7 +488,6 @@ private:
         // A point of a moved triangle moves by at most |uv|, so a piece within `reached` - |uv|
         // of its own (moved) triangle stays within `reached` of it.
         const double move = norm(position(u) - position(v)) * (1.0 + 1e-12) + 1e-12;
-        const std::vector<std::uint32_t>& star = vertex_triangles_[u];
         for (std::size_t i = 0; i < star.size(); ++i) {
             for (const Attached& a : triangle_pieces_[star[i]]) {
                 if (own[i] != kNone && a.distance + move <= reached) {
