@@ -123,6 +123,73 @@ Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
     return cross(b - a, c - a);
 }
 
+/// Relative error allowed for the float filter ahead of the exact intersection tests (Shewchuk's
+/// static bounds for the same orientation determinants are below 1e-15).
+constexpr double kFilterError = 1e-12;
+
+/// A triangle's plane for the float filter: n . (p - a) is the orientation of p, and its rounding
+/// error stays below kFilterError * scale . |p - a| (`scale`: the permanents of n's minors).
+struct FilterPlane {
+    Vec3 a;
+    Vec3 n;
+    Vec3 scale;
+    bool proper = false;  ///< certainly not degenerate (a component of n certainly nonzero)
+};
+
+FilterPlane filter_plane(const std::array<Vec3, 3>& t) {
+    const Vec3 e1 = t[1] - t[0];
+    const Vec3 e2 = t[2] - t[0];
+    FilterPlane f;
+    f.a = t[0];
+    f.n = cross(e1, e2);
+    f.scale = {std::abs(e1.y * e2.z) + std::abs(e1.z * e2.y),
+               std::abs(e1.z * e2.x) + std::abs(e1.x * e2.z),
+               std::abs(e1.x * e2.y) + std::abs(e1.y * e2.x)};
+    f.proper = std::abs(f.n.x) > kFilterError * f.scale.x ||
+               std::abs(f.n.y) > kFilterError * f.scale.y ||
+               std::abs(f.n.z) > kFilterError * f.scale.z;
+    return f;
+}
+
+/// Whether the corners of t that the plane's triangle (ids `plane_ids`) lacks all lie certainly
+/// on one side of the plane: then t meets that triangle at most in the corners they share.
+bool certainly_beside(const FilterPlane& f,
+                      const Tri& plane_ids,
+                      const std::array<Vec3, 3>& t,
+                      const Tri& ids) {
+    double side = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        if (ids[k] == plane_ids[0] || ids[k] == plane_ids[1] || ids[k] == plane_ids[2]) {
+            continue;
+        }
+        const Vec3 w = t[k] - f.a;
+        const double d = dot(f.n, w);
+        const double bound = kFilterError * (f.scale.x * std::abs(w.x) + f.scale.y * std::abs(w.y) +
+                                             f.scale.z * std::abs(w.z));
+        if (!(std::abs(d) > bound) || d * side < 0.0) {
+            return false;
+        }
+        side = d;
+    }
+    return side != 0.0;
+}
+
+/// True when triangles a and b (vertex ids) certainly do not intersect beyond the corners and
+/// edge they share, which is what triangles_intersect decides exactly; false: not certain.
+/// note: a float filter with a generous error bound, so that most neighbours (which share a
+/// corner and lie on one side of each other) skip the exact predicates.
+bool certainly_apart(const std::array<Vec3, 3>& a,
+                     const FilterPlane& fa,
+                     const Tri& ia,
+                     const std::array<Vec3, 3>& b,
+                     const Tri& ib) {
+    if (!fa.proper) {
+        return false;
+    }
+    const FilterPlane fb = filter_plane(b);
+    return fb.proper && (certainly_beside(fa, ia, b, ib) || certainly_beside(fb, ib, a, ia));
+}
+
 class Collapser {
 public:
     Collapser(const CollapseProblem& problem,
@@ -606,9 +673,13 @@ private:
             ++query_;  // each new triangle meets every neighbour once
             const std::array<Vec3, 3> ta = moved(changed[a], u, v);
             const Tri ia = ids_after(changed[a]);
+            const FilterPlane fa = filter_plane(ta);
+            auto intersects = [&](const std::array<Vec3, 3>& tb, const Tri& ib) {
+                return !certainly_apart(ta, fa, ia, tb, ib) && triangles_intersect(ta, ia, tb, ib);
+            };
             // the other new triangles
             for (std::size_t b = a + 1; b < changed.size(); ++b) {
-                if (triangles_intersect(ta, ia, moved(changed[b], u, v), ids_after(changed[b]))) {
+                if (intersects(moved(changed[b], u, v), ids_after(changed[b]))) {
                     return true;
                 }
             }
@@ -626,8 +697,7 @@ private:
                 seen_[slot] = query_;
                 if (obstacle) {
                     const std::array<Vec3, 3> tb = obstacle_corners(index);
-                    hit =
-                        boxes_overlap(ta, tb) && triangles_intersect(ta, ia, tb, obstacles_[index]);
+                    hit = boxes_overlap(ta, tb) && intersects(tb, obstacles_[index]);
                     return;
                 }
                 if (!alive_[index] || contains(index, u)) {
@@ -636,8 +706,7 @@ private:
                 const Tri& lt = triangles_[index];
                 const std::array<Vec3, 3> tb = corners(index);
                 hit = boxes_overlap(ta, tb) &&
-                      triangles_intersect(ta, ia, tb,
-                                          {global_[lt[0]], global_[lt[1]], global_[lt[2]]});
+                      intersects(tb, {global_[lt[0]], global_[lt[1]], global_[lt[2]]});
             });
             if (hit) {
                 return true;
