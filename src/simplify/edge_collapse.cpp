@@ -199,7 +199,7 @@ public:
           pieces_(problem.pieces),
           meter_(meter),
           options_(options),
-          cache_(options.error_floor_px),
+          cache_(options.error_floor_px, options.max_error_px),
           grid_(grid_cell(problem)) {
         // Local vertex ids: the piece's vertices in increasing global id.
         for (const Tri& t : problem.triangles) {
@@ -580,7 +580,9 @@ private:
         return reached;
     }
 
-    /// Error bound of triangle t with u replaced by v (corners `after`), read once per triangle.
+    /// Error bound of triangle t with u replaced by v (corners `after`), read once per triangle;
+    /// above max_error_px only known to exceed it (the read stops there: such a collapse is
+    /// refused whatever the rest).
     /// note: positions never move and the section cache only grows, so a triangle's bound never
     /// changes: the collapses around a vertex meet the same new triangles again and again.
     double moved_error(std::uint32_t t,

@@ -212,7 +212,8 @@ double piece_distance_px(const ContourPiece& piece,
     return std::min(capsule, reached);
 }
 
-double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px) const {
+double SliceErrorMeter::segment_error_px(
+    std::uint32_t k, Vec2 p, Vec2 q, double known_px, double cutoff) const {
     if (k >= slices_.size() || slices_[k].field == nullptr) {
         return kInfinity;
     }
@@ -294,6 +295,9 @@ double SliceErrorMeter::segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double
         const double h = std::min(kStepPx, length - t);
         const Vec2 b = p + (t + h) * dir;
         reached = std::max(reached, charge(a, b));
+        if (reached > cutoff) {
+            break;
+        }
         t += h;
         if (h < kStepPx) {
             break;
@@ -387,19 +391,20 @@ double SliceErrorMeter::cap_error_px(std::uint32_t k, const std::array<Vec2, 3>&
 
 double SliceErrorMeter::triangle_error_px(const std::array<Vec3, 3>& triangle,
                                           double known_px) const {
-    return triangle_error(triangle, nullptr, nullptr, known_px);
+    return triangle_error(triangle, nullptr, nullptr, known_px, kInfinity);
 }
 
 double SliceErrorMeter::triangle_error_px(const std::array<Vec3, 3>& triangle,
                                           const std::array<std::uint32_t, 3>& ids,
                                           SectionCache& cache) const {
-    return triangle_error(triangle, &ids, &cache, cache.known_px());
+    return triangle_error(triangle, &ids, &cache, cache.known_px(), cache.cutoff_px());
 }
 
 double SliceErrorMeter::triangle_error(const std::array<Vec3, 3>& triangle,
                                        const std::array<std::uint32_t, 3>* ids,
                                        SectionCache* cache,
-                                       double known_px) const {
+                                       double known_px,
+                                       double cutoff) const {
     double zmin = kInfinity, zmax = -kInfinity;
     for (const Vec3& v : triangle) {
         if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
@@ -415,7 +420,7 @@ double SliceErrorMeter::triangle_error(const std::array<Vec3, 3>& triangle,
     double reached = known_px;
     const double k0 = std::ceil(zmin / spacing_ - 1e-9);
     const double k1 = std::floor(zmax / spacing_ + 1e-9);
-    for (double kk = std::max(k0, 0.0); kk <= k1; ++kk) {
+    for (double kk = std::max(k0, 0.0); kk <= k1 && reached <= cutoff; ++kk) {
         const double plane = kk * spacing_;
         if (kk >= double(slices_.size())) {
             break;  // no input slice there
@@ -469,13 +474,15 @@ double SliceErrorMeter::triangle_error(const std::array<Vec3, 3>& triangle,
                 // which triangle reads the edge first (the walk's pieces depend on its direction).
                 const Vec2 from = ends[(*ids)[first] <= (*ids)[second] ? 0 : n - 1];
                 const Vec2 to = ends[(*ids)[first] <= (*ids)[second] ? n - 1 : 0];
-                it = cache->bounds_.emplace(key, segment_error_px(k, from, to, cache->known_px()))
+                it = cache->bounds_
+                         .emplace(key, segment_error_px(k, from, to, cache->known_px(), cutoff))
                          .first;
             }
             reached = std::max(reached, it->second);
             continue;
         }
-        reached = std::max(reached, segment_error_px(k, ends[0], ends[n == 1 ? 0 : 1], reached));
+        reached =
+            std::max(reached, segment_error_px(k, ends[0], ends[n == 1 ? 0 : 1], reached, cutoff));
     }
     return reached;
 }

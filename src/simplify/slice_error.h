@@ -14,15 +14,20 @@ namespace strata {
 
 /// Bounds of the sections that are mesh edges or vertices lying in a slice plane, by vertex ids:
 /// simplification meets the same contour edges in many candidate triangles, so each is read once.
-/// Valid for one mesh (ids) and one `known_px`.
+/// Valid for one mesh (ids), one `known_px` and one `cutoff_px`: a bound above the cutoff is only
+/// known to exceed it.
 class SectionCache {
 public:
-    explicit SectionCache(double known_px) : known_px_(known_px) {}
+    explicit SectionCache(double known_px,
+                          double cutoff_px = std::numeric_limits<double>::infinity())
+        : known_px_(known_px), cutoff_px_(cutoff_px) {}
     double known_px() const { return known_px_; }
+    double cutoff_px() const { return cutoff_px_; }
 
 private:
     friend class SliceErrorMeter;
     double known_px_ = 0.0;
+    double cutoff_px_ = std::numeric_limits<double>::infinity();
     std::unordered_map<std::uint64_t, double> bounds_;  ///< key: smaller id << 32 | larger id
 };
 
@@ -90,14 +95,20 @@ public:
     double triangle_error_px(const std::array<Vec3, 3>& triangle, double known_px = 0.0) const;
 
     /// The same for a triangle of a mesh (vertex ids `ids`), with max(cache.known_px(), ...):
-    /// sections that are edges or vertices of the mesh are read through `cache`.
+    /// sections that are edges or vertices of the mesh are read through `cache`. Once the bound
+    /// is known to exceed cache.cutoff_px(), a value above it (not the bound) is returned early.
     double triangle_error_px(const std::array<Vec3, 3>& triangle,
                              const std::array<std::uint32_t, 3>& ids,
                              SectionCache& cache) const;
 
     /// max(known_px, error bound of the segment pq lying in the plane of slice k): its distance
-    /// from the contour of slice k.
-    double segment_error_px(std::uint32_t k, Vec2 p, Vec2 q, double known_px = 0.0) const;
+    /// from the contour of slice k. Once that is known to exceed `cutoff`, a value above it (not
+    /// the bound) is returned early.
+    double segment_error_px(std::uint32_t k,
+                            Vec2 p,
+                            Vec2 q,
+                            double known_px = 0.0,
+                            double cutoff = std::numeric_limits<double>::infinity()) const;
 
     /// Error bound (px) of triangle abc lying in the plane of slice k: distance to its inside.
     double cap_error_px(std::uint32_t k, const std::array<Vec2, 3>& triangle) const;
@@ -117,7 +128,8 @@ private:
     double triangle_error(const std::array<Vec3, 3>& triangle,
                           const std::array<std::uint32_t, 3>* ids,
                           SectionCache* cache,
-                          double known_px) const;
+                          double known_px,
+                          double cutoff) const;
 
     std::vector<Slice> slices_;
     std::vector<ContourPiece> pieces_;
