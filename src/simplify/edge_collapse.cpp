@@ -22,6 +22,7 @@
 #include "core/error.h"
 #include "mesh/self_intersection.h"
 #include "simplify/detail/triangle_grid.h"
+#include "simplify/detail/triangle_hash.h"
 
 namespace strata {
 
@@ -93,11 +94,8 @@ private:
     };
     std::size_t mask() const { return entries_.size() - 1; }
     std::size_t slot(const Tri& t) const {
-        std::uint64_t h = std::uint64_t(t[0]) * 0x9e3779b97f4a7c15ull ^
-                          std::uint64_t(t[1]) * 0xc2b2ae3d27d4eb4full ^
-                          std::uint64_t(t[2]) * 0x165667b19e3779f9ull;
-        h ^= h >> 29;
-        return std::size_t(h) & mask();
+        const std::size_t h = detail::TriangleHash{}(t);
+        return h & mask();
     }
     void grow() {
         std::vector<Entry> old(std::max<std::size_t>(1024, 2 * entries_.size()));

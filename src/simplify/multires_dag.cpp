@@ -5,8 +5,8 @@
 #include "simplify/multires_dag.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
-#include <cstring>
 #include <map>
 #include <numeric>
 #include <string>
@@ -16,6 +16,7 @@
 #include "core/parallel.h"
 #include "mesh/self_intersection.h"
 #include "simplify/detail/triangle_grid.h"
+#include "simplify/detail/triangle_hash.h"
 #include "simplify/edge_collapse.h"
 
 namespace strata {
@@ -31,22 +32,14 @@ constexpr double kPieceFitPx = 0.01;
 /// ... or are this short (px).
 constexpr double kShortestPiecePx = 1.0 / 16.0;
 
-struct TriHash {
-    std::size_t operator()(const Tri& t) const {
-        std::uint64_t h = std::uint64_t(t[0]) * 0x9e3779b97f4a7c15ull ^
-                          std::uint64_t(t[1]) * 0xc2b2ae3d27d4eb4full ^
-                          std::uint64_t(t[2]) * 0x165667b19e3779f9ull;
-        return std::size_t(h ^ (h >> 29));
-    }
-};
+using detail::TriangleHash;
 
+/// Hash of a position's exact coordinates (-0 and +0 alike).
 struct PositionHash {
     std::size_t operator()(const Vec3& p) const {
         std::uint64_t h = 0;
         for (const double c : {p.x, p.y, p.z}) {
-            std::uint64_t bits = 0;
-            std::memcpy(&bits, &c, sizeof bits);
-            h = (h ^ bits) * 0x9e3779b97f4a7c15ull;
+            h = (h ^ std::bit_cast<std::uint64_t>(c + 0.0)) * 0x9e3779b97f4a7c15ull;
         }
         return std::size_t(h ^ (h >> 29));
     }
@@ -351,9 +344,9 @@ private:
     }
 
     /// Position of every triangle in `triangles`.
-    static std::unordered_map<Tri, std::uint32_t, TriHash> index_of(
+    static std::unordered_map<Tri, std::uint32_t, TriangleHash> index_of(
         const std::vector<Tri>& triangles) {
-        std::unordered_map<Tri, std::uint32_t, TriHash> index;
+        std::unordered_map<Tri, std::uint32_t, TriangleHash> index;
         index.reserve(triangles.size());
         for (std::uint32_t i = 0; i < triangles.size(); ++i) {
             index.emplace(triangles[i], i);
@@ -365,7 +358,7 @@ private:
     /// into the triangles `index` was made of, and a piece) holds for its triangles.
     void attach_to_cluster(std::uint32_t c,
                            const std::vector<Tri>& part,
-                           const std::unordered_map<Tri, std::uint32_t, TriHash>& index,
+                           const std::unordered_map<Tri, std::uint32_t, TriangleHash>& index,
                            const std::vector<PieceAttachment>& attached) {
         std::vector<PieceAttachment>& out = cluster_pieces_[c];
         for (std::uint32_t j = 0; j < part.size() && !attached.empty(); ++j) {

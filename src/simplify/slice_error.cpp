@@ -95,24 +95,21 @@ SliceErrorMeter::SliceErrorMeter(const SliceContours& contours,
             if (contour.label != label || contour.points.empty()) {
                 continue;
             }
+            // note: a contour without a simplification stands for itself, edge by edge
             const std::vector<std::uint32_t>& kept = contour.simplified;
-            if (kept.size() < 2 || kept.size() != contour.edge_deviation_px.size()) {
-                // note: not simplified: every original edge is its own piece
-                for (std::size_t i = 0; i < contour.points.size(); ++i) {
-                    const Vec2 a = contour.points[i];
-                    const Vec2 b = contour.points[(i + 1) % contour.points.size()];
-                    pieces_.push_back({{a.x, a.y, z}, {b.x, b.y, z}, 0.0});
-                }
-                continue;
-            }
+            const bool simplified =
+                kept.size() >= 2 && kept.size() == contour.edge_deviation_px.size();
             const auto n = std::uint32_t(contour.points.size());
-            for (std::size_t e = 0; e < kept.size(); ++e) {
-                const std::uint32_t first = kept[e], last = kept[(e + 1) % kept.size()];
+            const std::size_t count = simplified ? kept.size() : n;
+            for (std::size_t e = 0; e < count; ++e) {
+                const std::uint32_t first = simplified ? kept[e] : std::uint32_t(e);
+                const std::uint32_t last =
+                    simplified ? kept[(e + 1) % count] : std::uint32_t((e + 1) % n);
                 const Vec2 a = contour.points[first];
                 const Vec2 b = contour.points[last];
                 pieces_.push_back({{a.x, a.y, z},
                                    {b.x, b.y, z},
-                                   contour.edge_deviation_px[e],
+                                   simplified ? contour.edge_deviation_px[e] : 0.0,
                                    &contour.points,
                                    first,
                                    (last + n - first) % n});
