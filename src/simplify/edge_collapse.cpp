@@ -550,14 +550,8 @@ private:
         // The contour pieces of u's star move to the nearest changed triangle (their own first).
         // note: only the largest distance counts, so a piece within `reached` of some triangle
         // is done.
-        // A point of a moved triangle moves by at most |uv|, so a piece within `reached` - |uv|
-        // of its own (moved) triangle stays within `reached` of it.
-        const double move = norm(position(u) - position(v)) * (1.0 + 1e-12) + 1e-12;
         for (std::size_t i = 0; i < star.size(); ++i) {
             for (const Attached& a : triangle_pieces_[star[i]]) {
-                if (own[i] != kNone && a.distance + move <= reached) {
-                    continue;
-                }
                 const ContourPiece& piece = (*pieces_)[a.piece];
                 double best = std::numeric_limits<double>::infinity();
                 if (own[i] != kNone) {
