@@ -637,12 +637,15 @@ function isShown(object) {
 ///   * .gltf: the JSON, then the base buffer; chunks by ranges of the level files;
 ///   * a server without ranges: the whole file (then chunks are decoded lazily from memory).
 /// loader: a GLTFLoader with a DRACOLoader set (the plugin is registered here, for this load
-/// only); returns the glTF result; result.userData.strata is the plugin.
-export async function loadStrataModel(url, { createLoader, pluginOptions = {}, fetch: fetchFn = null } = {}) {
+/// only); prefixBytes: the size of the first request (GLB header and JSON; what it holds beyond
+/// them is kept, so it may also hold the base and chunks); returns the glTF result;
+/// result.userData.strata is the plugin.
+export async function loadStrataModel(url, { createLoader, pluginOptions = {}, fetch: fetchFn = null, prefixBytes = 64 * 1024 } = {}) {
     const doFetch = fetchFn ?? globalThis.fetch.bind(globalThis);
     const absolute = new URL(url, globalThis.location?.href ?? undefined).href;
     const basePath = LoaderUtils.extractUrlBase(absolute);
-    const kPrefix = 64 * 1024;  // the first request: GLB header and JSON (often all of it)
+    if (!(Number.isInteger(prefixBytes) && prefixBytes >= 20)) throw new Error(`prefixBytes ${prefixBytes}: expected an integer >= 20 (the GLB header)`);
+    const kPrefix = prefixBytes;
     let bytesRead = 0;
     let requests = 0;
     const response = await doFetch(absolute, { headers: { Range: `bytes=0-${kPrefix - 1}` } });

@@ -132,7 +132,8 @@ let lastFrame = 0;
 async function openUrl(url) {
     timing.loadStart = performance.now();
     $('message').textContent = `loading ${url} ...`;
-    const result = await loadStrataModel(url, { createLoader, pluginOptions: {} });
+    const prefixBytes = params.has('prefix') ? Number(params.get('prefix')) : undefined;
+    const result = await loadStrataModel(url, { createLoader, pluginOptions: {}, prefixBytes });
     show(result, url.split('/').pop());
 }
 
