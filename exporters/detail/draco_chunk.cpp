@@ -5,6 +5,7 @@
 #include <limits>
 
 #include <draco/compression/expert_encode.h>
+#include <draco/core/options.h>
 #include <draco/mesh/mesh.h>
 
 #include "core/error.h"
@@ -19,6 +20,23 @@ int bits_for(double extent_steps) {
         ++bits;
     }
     return bits;
+}
+
+// Draco keeps the quantization origin and range as decimal text with six decimals
+// (draco::Options, std::to_string), so an origin of 7.8359375 comes back as 7.835938 and the
+// decoded positions leave the grid. These read values back the way the encoder will.
+bool survives_options(const float (&origin)[3]) {
+    draco::Options options;
+    options.SetVector("v", origin, 3);
+    float back[3] = {};
+    options.GetVector("v", 3, back);
+    return back[0] == origin[0] && back[1] == origin[1] && back[2] == origin[2];
+}
+
+bool survives_options(float range) {
+    draco::Options options;
+    options.SetFloat("v", range);
+    return options.GetFloat("v") == range;
 }
 
 }  // namespace
@@ -60,19 +78,37 @@ DracoChunkBytes encode_draco_chunk(const DracoChunkInput& in,
             }
         }
     }
+    // The origin: the lowest grid point, moved down to a multiple of 1/64 when the grid is finer
+    // (six decimals hold it exactly). The range: step * (2^bits - 1), with more bits where
+    // Draco's text would round it.
+    const double exact_step = std::max(in.step, 1.0 / 64.0);
+    float origin[3] = {};
     double extent = 0.0;
     for (int k = 0; k < 3; ++k) {
-        extent = std::max(extent, (hi[k] - lo[k]) / in.step);
+        origin[k] = static_cast<float>(std::floor(lo[k] / exact_step) * exact_step);
+        extent = std::max(extent, (hi[k] - origin[k]) / in.step);
     }
-    const int bits = bits_for(extent);
+    int bits = bits_for(extent);
+    const auto range_of = [&](int b) {
+        return static_cast<float>(in.step * (std::ldexp(1.0, b) - 1.0));
+    };
+    while (bits < 24 && !survives_options(range_of(bits))) {
+        ++bits;
+    }
     if (std::ldexp(1.0, bits) - 1.0 < extent) {
         throw Error(ErrorCode::InvalidInput,
                     "spans " + std::to_string(extent) +
                         " grid steps, more than 2^24 (float positions would lose the grid)");
     }
-    const float origin[3] = {static_cast<float>(lo[0]), static_cast<float>(lo[1]),
-                             static_cast<float>(lo[2])};
-    const float range = static_cast<float>(in.step * (std::ldexp(1.0, bits) - 1.0));
+    const float range = range_of(bits);
+    if (!survives_options(origin) || !survives_options(range)) {
+        throw Error(ErrorCode::Unsupported,
+                    "the quantization origin (" + std::to_string(origin[0]) + ", " +
+                        std::to_string(origin[1]) + ", " + std::to_string(origin[2]) +
+                        ") or range " + std::to_string(range) +
+                        " does not survive Draco's six-decimal options text (grid step " +
+                        std::to_string(in.step) + ")");
+    }
 
     draco::ExpertEncoder encoder(mesh);
     encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);

@@ -31,13 +31,15 @@ struct DracoChunkBytes {
 
 /// Edgebreaker at `compression_level` (0 fastest .. 10 smallest; speed 10 - level); POSITION and
 /// `_COARSE_POSITION` quantized losslessly on the grid (origin: the chunk's lowest grid point,
-/// range: step * (2^bits - 1), bits the fewest that span it) and predicted by constrained
-/// multi-parallelogram, which Draco itself picks only at its two slowest speeds (measured with
-/// scripts/bench-size.sh on the torso: positions -12 %, coarse positions -29 % against
-/// parallelogram; every Draco decoder build, the glTF-only one included, reads it); NORMAL
-/// octahedral with `normal_bits`, predicted from the positions.
+/// moved down to a multiple of 1/64 on finer grids; range: step * (2^bits - 1), bits the fewest
+/// that span it and whose range survives Draco's six-decimal options text) and predicted by
+/// constrained multi-parallelogram, which Draco itself picks only at its two slowest speeds
+/// (measured with scripts/bench-size.sh on the torso: positions -12 %, coarse positions -29 %
+/// against parallelogram; every Draco decoder build, the glTF-only one included, reads it);
+/// NORMAL octahedral with `normal_bits`, predicted from the positions.
 /// \throw Error{InvalidInput} when the chunk spans more than 2^24 grid steps (float positions
-///        would lose the grid); Error{Internal} when Draco fails.
+///        would lose the grid); Error{Unsupported} when the origin or range would not survive
+///        Draco's options text; Error{Internal} when Draco fails.
 DracoChunkBytes encode_draco_chunk(const DracoChunkInput& in,
                                    int compression_level,
                                    int normal_bits);
