@@ -88,6 +88,39 @@ double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
     return std::abs(cross(d, w)) / std::sqrt(length_sq);
 }
 
+/// True when d is one pixel along an axis (a unit pixel edge).
+bool is_unit_step(Vec2 d) {
+    return (std::abs(d.x) == 1.0 && d.y == 0.0) || (d.x == 0.0 && std::abs(d.y) == 1.0);
+}
+
+/// True when points[i] is the midpoint of a unit pixel edge inserted by `simplify_contours`:
+/// the middle of its neighbours, which are one pixel apart along an axis.
+bool is_edge_midpoint(std::span<const Vec2> points, std::uint32_t i) {
+    const Vec2 a = points[i - 1];
+    const Vec2 b = points[i + 1];
+    return is_unit_step(b - a) && points[i] == Vec2{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)};
+}
+
+/// True when points[i] is a step of a pixel staircase: a corner (turning) between unit edges whose
+/// neighbouring corner across one of them turns the other way. Corners of a convex run (a single
+/// pixel, a rectangle) turn the same way as their neighbours and are not steps.
+bool is_staircase_step(std::span<const Vec2> points, std::uint32_t i) {
+    const auto turn = [&](std::size_t k) {
+        return cross(points[k] - points[k - 1], points[k + 1] - points[k]);
+    };
+    if (i < 1 || i + 1 >= points.size()) {
+        return false;
+    }
+    const double here = turn(i);
+    if (here == 0.0) {
+        return false;
+    }
+    const bool back = i >= 3 && is_edge_midpoint(points, i - 1) && turn(i - 2) * here < 0.0;
+    const bool ahead =
+        i + 3 < points.size() && is_edge_midpoint(points, i + 1) && turn(i + 2) * here < 0.0;
+    return back || ahead;
+}
+
 /// The point strictly between s and t (cyclically, indices modulo points.size()) farthest from
 /// the segment [points[s], points[t]]; the first one on ties. `index` is kNone for an empty
 /// range.
@@ -116,9 +149,13 @@ class DouglasPeucker {
 public:
     /// Appends the kept segments of the chain `points` (indices shifted by `offset`), in no
     /// particular order.
+    /// With `midpoints`, a split at a staircase step moves to a neighbouring edge midpoint (the
+    /// one nearer the segment if there are two: the middle of the staircase's band; see
+    /// SimplifyOptions::edge_midpoints).
     void run(std::span<const Vec2> points,
              double tolerance_px,
              std::uint32_t offset,
+             bool midpoints,
              std::vector<KeptEdge>& edges) {
         if (points.size() < 2) {
             return;
@@ -166,6 +203,9 @@ public:
                 }
                 split = worst.index;  // the chain doubles back past an end of the segment
             }
+            if (midpoints) {
+                split = midpoint_split(points, task, split, a, b);
+            }
             // The half containing the tag keeps its hull; the other half is rebuilt later.
             const std::uint32_t tag = hull_.tag();
             if (direct || split == tag) {
@@ -193,6 +233,24 @@ private:
         std::uint32_t last;
         bool hull_ready;  ///< the path hull holds [first, last]; only ever the top task
     };
+
+    /// `split`, or if it is a staircase step the edge midpoint next to it (strictly inside the
+    /// task) nearer to [a, b].
+    static std::uint32_t midpoint_split(
+        std::span<const Vec2> points, const Task& task, std::uint32_t split, Vec2 a, Vec2 b) {
+        if (!is_staircase_step(points, split)) {
+            return split;
+        }
+        const bool before = split - 1 > task.first && is_edge_midpoint(points, split - 1);
+        const bool after = split + 1 < task.last && is_edge_midpoint(points, split + 1);
+        if (before && after) {
+            return segment_distance(points[split - 1], a, b) <=
+                           segment_distance(points[split + 1], a, b)
+                       ? split - 1
+                       : split + 1;
+        }
+        return before ? split - 1 : after ? split + 1 : split;
+    }
 
     /// The farthest point strictly inside the task from the line through a and b, as
     /// |cross(b - a, p - a)| (or from a itself if a == b); the first one on ties.
@@ -223,9 +281,12 @@ bool by_first(const KeptEdge& a, const KeptEdge& b) {
 /// Douglas-Peucker of open and closed chains, reusing buffers.
 class Simplifier {
 public:
+    /// `midpoints`: splits move to neighbouring edge midpoints (DouglasPeucker::run).
+    explicit Simplifier(bool midpoints = false) : midpoints_(midpoints) {}
+
     std::vector<KeptEdge> open_edges(std::span<const Vec2> points, double tolerance_px) {
         std::vector<KeptEdge> edges;
-        dp_.run(points, tolerance_px, 0, edges);
+        dp_.run(points, tolerance_px, 0, midpoints_, edges);
         std::sort(edges.begin(), edges.end(), by_first);
         return edges;
     }
@@ -256,8 +317,8 @@ public:
         scratch_.assign(points.begin(), points.end());
         scratch_.push_back(points[0]);
         const std::span<const Vec2> unrolled(scratch_);
-        dp_.run(unrolled.first(far + 1), tolerance_px, 0, edges);
-        dp_.run(unrolled.subspan(far), tolerance_px, far, edges);
+        dp_.run(unrolled.first(far + 1), tolerance_px, 0, midpoints_, edges);
+        dp_.run(unrolled.subspan(far), tolerance_px, far, midpoints_, edges);
         for (KeptEdge& edge : edges) {
             if (edge.last == n) {
                 edge.last = 0;
@@ -297,7 +358,7 @@ public:
                 }
             }
             const std::size_t before = out.size();
-            dp_.run(scratch_, tolerance_px, 0, out);
+            dp_.run(scratch_, tolerance_px, 0, midpoints_, out);
             for (std::size_t e = before; e < out.size(); ++e) {
                 out[e].first = static_cast<std::uint32_t>((from + std::uint64_t{out[e].first}) % n);
                 out[e].last = static_cast<std::uint32_t>((from + std::uint64_t{out[e].last}) % n);
@@ -308,6 +369,7 @@ public:
 private:
     DouglasPeucker dp_;
     std::vector<Vec2> scratch_;
+    bool midpoints_ = false;
 };
 
 std::vector<std::uint32_t> kept_indices(const std::vector<KeptEdge>& edges,
@@ -714,7 +776,29 @@ std::size_t simplify_contours(std::vector<Contour>& contours, const SimplifyOpti
         }
         check_points(where, contours[c].points);
     }
-    Simplifier simplifier;
+    // Every unit pixel edge gets its midpoint while simplifying; the ones no simplified edge ends
+    // at are dropped again at the end.
+    std::vector<std::vector<bool>> inserted(contours.size());
+    if (options.edge_midpoints) {
+        std::vector<Vec2> refined;
+        for (std::size_t c = 0; c < contours.size(); ++c) {
+            const std::vector<Vec2>& points = contours[c].points;
+            refined.clear();
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                const Vec2 a = points[i];
+                const Vec2 b = points[i + 1 == points.size() ? 0 : i + 1];
+                refined.push_back(a);
+                inserted[c].push_back(false);
+                if (is_unit_step(b - a)) {
+                    refined.push_back({0.5 * (a.x + b.x), 0.5 * (a.y + b.y)});
+                    inserted[c].push_back(true);
+                }
+            }
+            check_points("simplify_contours", refined);
+            contours[c].points.assign(refined.begin(), refined.end());
+        }
+    }
+    Simplifier simplifier(options.edge_midpoints);
     std::vector<std::vector<KeptEdge>> edges(contours.size());
     for (std::size_t c = 0; c < contours.size(); ++c) {
         edges[c] = simplifier.closed_edges(contours[c].points, options.tolerance_px);
@@ -738,7 +822,31 @@ std::size_t simplify_contours(std::vector<Contour>& contours, const SimplifyOpti
         begin = end;
     }
     for (std::size_t c = 0; c < contours.size(); ++c) {
-        contours[c].simplified = kept_indices(edges[c], &contours[c].edge_deviation_px);
+        Contour& contour = contours[c];
+        contour.simplified = kept_indices(edges[c], &contour.edge_deviation_px);
+        if (inserted[c].empty()) {
+            continue;
+        }
+        // Keep the original points and the midpoints that became vertices; renumber.
+        std::vector<bool> keep(inserted[c].size());
+        for (std::size_t i = 0; i < keep.size(); ++i) {
+            keep[i] = !inserted[c][i];
+        }
+        for (const std::uint32_t v : contour.simplified) {
+            keep[v] = true;
+        }
+        std::vector<std::uint32_t> index(keep.size());
+        std::size_t kept = 0;
+        for (std::size_t i = 0; i < keep.size(); ++i) {
+            index[i] = static_cast<std::uint32_t>(kept);
+            if (keep[i]) {
+                contour.points[kept++] = contour.points[i];
+            }
+        }
+        contour.points.resize(kept);
+        for (std::uint32_t& v : contour.simplified) {
+            v = index[v];
+        }
     }
     return reinserted;
 }

@@ -27,7 +27,9 @@ struct Contour {
                                ///< index of this slice and label, see SliceLabelRegions
     /// The original contour: closed (the last point connects to the first, not repeated), no
     /// repeated points; consecutive points are 1 apart along pixel edges, or 0.5 and sqrt(1/2)
-    /// around a cut saddle.
+    /// around a cut saddle. Simplification adds the midpoints of the pixel edges where
+    /// simplified vertices sit (SimplifyOptions::edge_midpoints), 0.5 from their neighbours; the
+    /// polygon is the same.
     std::vector<Vec2> points;
     /// Indices into `points` of the simplified polygon's vertices, strictly increasing, at least
     /// 3. Simplified edge e runs from points[simplified[e]] to points[simplified[e + 1]] (the

@@ -333,6 +333,81 @@ TEST(SimplifyContours, SinglePixelKeepsItsFourCorners) {
     EXPECT_EQ(contours[0].edge_deviation_px, std::vector<double>(4, 0.0));
 }
 
+/// A region under a digital line of slope 1/3: a staircase of 3-pixel runs and 1-pixel steps
+/// from (0, 0) to (30, 10), closed by the sides (30, 10) - (0, 10) - (0, 0).
+std::vector<Vec2> staircase_region() {
+    std::vector<Vec2> corners;
+    for (int k = 0; k < 10; ++k) {
+        corners.push_back({3.0 * k, double(k)});
+        corners.push_back({3.0 * k + 3.0, double(k)});
+    }
+    corners.push_back({30, 10});
+    corners.push_back({0, 10});
+    return walk(corners);
+}
+
+/// Largest angle (degrees) between a simplified edge running along the staircase (both ends
+/// below the line y = 10) and the digital line's direction (3, 1).
+double staircase_direction_error(const Contour& c) {
+    double worst = 0.0;
+    const std::size_t m = c.simplified.size();
+    for (std::size_t e = 0; e < m; ++e) {
+        const Vec2 a = c.points[c.simplified[e]];
+        const Vec2 b = c.points[c.simplified[(e + 1) % m]];
+        if (a.y >= 10.0 || b.y >= 10.0 || a.x >= 30.0 || b.x >= 30.0 ||
+            (a.x == 0.0 && b.x == 0.0)) {
+            continue;
+        }
+        const double angle = std::atan2(b.y - a.y, b.x - a.x) - std::atan2(1.0, 3.0);
+        worst = std::max(worst, std::abs(angle) * 180.0 / std::acos(-1.0));
+    }
+    return worst;
+}
+
+TEST(SimplifyContours, StaircaseVerticesSitAtEdgeMidpoints) {
+    const std::vector<Vec2> original = staircase_region();
+    std::vector<Contour> midpoints{make_contour(1, original)};
+    std::vector<Contour> corners{make_contour(1, original)};
+    simplify_contours(midpoints, SimplifyOptions{0.5});
+    simplify_contours(corners, SimplifyOptions{0.5, false});
+    expect_clean(midpoints, 0.5);
+    expect_clean(corners, 0.5);
+    EXPECT_EQ(corners[0].points, original);
+
+    // The points are the original ones plus the pixel-edge midpoints that became vertices.
+    const Contour& c = midpoints[0];
+    std::vector<Vec2> without;
+    std::size_t inserted = 0;
+    for (std::size_t i = 0; i < c.points.size(); ++i) {
+        const Vec2 p = c.points[i];
+        if (std::find(original.begin(), original.end(), p) != original.end()) {
+            without.push_back(p);
+            continue;
+        }
+        ++inserted;
+        const Vec2 a = c.points[(i + c.points.size() - 1) % c.points.size()];
+        const Vec2 b = c.points[(i + 1) % c.points.size()];
+        EXPECT_EQ(p, (Vec2{0.5 * (a.x + b.x), 0.5 * (a.y + b.y)})) << "point " << i;
+        EXPECT_DOUBLE_EQ(norm(b - a), 1.0) << "point " << i;
+        EXPECT_TRUE(std::binary_search(c.simplified.begin(), c.simplified.end(), i))
+            << "point " << i << " was inserted but is no vertex";
+    }
+    EXPECT_EQ(without, original);
+    EXPECT_GT(inserted, 0u);
+
+    // Corner vertices zig-zag across the staircase's band (0.95 px wide, wider than the
+    // tolerance): 22 vertices, edges up to 72 degrees off. Midpoint vertices run inside it:
+    // 6 vertices, edges within 9 degrees.
+    EXPECT_LE(2 * c.simplified.size(), corners[0].simplified.size());
+    EXPECT_LT(staircase_direction_error(c), 12.0);
+    EXPECT_GT(staircase_direction_error(corners[0]), 45.0);
+    // the region's true corners stay
+    for (const Vec2 corner : {Vec2{30, 10}, Vec2{0, 10}}) {
+        EXPECT_TRUE(std::any_of(c.simplified.begin(), c.simplified.end(),
+                                [&](std::uint32_t v) { return c.points[v] == corner; }));
+    }
+}
+
 TEST(SimplifyContours, SaddleCutContourStaysSimple) {
     // Two pixels touching at a corner (8-connected): one contour, the saddle cut through the
     // midpoints (1, 0.5) and (1.5, 1) on one side and (1, 1.5) and (0.5, 1) on the other.
@@ -374,9 +449,14 @@ TEST(SimplifyContours, DifferentLabelsAreIndependent) {
     const double tolerance = 5.0;
     std::vector<Contour> contours = u_and_island();
     contours[1].label = 2;
+    // each contour simplified on its own
+    std::vector<Contour> alone[2] = {{contours[0]}, {contours[1]}};
     EXPECT_EQ(simplify_contours(contours, SimplifyOptions{tolerance}), 0u);
-    EXPECT_EQ(contours[0].simplified, simplify_closed_polyline(contours[0].points, tolerance));
-    EXPECT_EQ(contours[1].simplified, simplify_closed_polyline(contours[1].points, tolerance));
+    for (std::size_t c = 0; c < 2; ++c) {
+        simplify_contours(alone[c], SimplifyOptions{tolerance});
+        EXPECT_EQ(contours[c].points, alone[c][0].points);
+        EXPECT_EQ(contours[c].simplified, alone[c][0].simplified);
+    }
 }
 
 TEST(SimplifyContours, RepairsASelfIntersection) {
