@@ -471,6 +471,7 @@ SliceContours extract_contours(const SliceStack& stack, const ContourOptions& op
     result.slices.resize(stack.depth);
     SimplifyOptions simplify;
     simplify.tolerance_px = options.tolerance_px;
+    simplify.edge_midpoints = options.edge_midpoints;
     std::mutex progress_mutex;
     std::size_t done = 0;
     parallel_for(stack.depth, options.threads, [&](std::size_t k) {

@@ -11,9 +11,10 @@ namespace strata {
 
 /// Options of the contour stage.
 struct ContourOptions {
-    double tolerance_px = 0.5;  ///< Douglas-Peucker tolerance (px); 0.5 keeps every pixel exact
-    unsigned threads = 0;       ///< worker threads, 0 = all cores; output is identical for any
-    ProgressFn progress;        ///< called per traced slice (may be empty)
+    double tolerance_px = 0.5;   ///< Douglas-Peucker tolerance (px); 0.5 keeps every pixel exact
+    bool edge_midpoints = true;  ///< SimplifyOptions::edge_midpoints
+    unsigned threads = 0;        ///< worker threads, 0 = all cores; output is identical for any
+    ProgressFn progress;         ///< called per traced slice (may be empty)
 };
 
 /// Traces every contour of every label on slice `k` of `stack` (paper 2.I.1): closed simple

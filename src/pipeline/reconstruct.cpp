@@ -7,6 +7,7 @@
 #include <numeric>
 #include <utility>
 
+#include "contours/simplify_contours.h"
 #include "core/parallel.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
@@ -192,6 +193,31 @@ std::string quantize_and_verify(const SliceStack& stack,
     return "kept unsnapped (no progressive export): " + why;
 }
 
+/// Simplifies the contours of `label` again with their vertices at pixel corners only
+/// (SimplifyOptions::edge_midpoints off). Their points stay, and with them the distance fields.
+void simplify_at_corners(SliceContours& contours, std::uint16_t label, double tolerance_px) {
+    SimplifyOptions simplify;
+    simplify.tolerance_px = tolerance_px;
+    simplify.edge_midpoints = false;
+    for (SliceContourSet& set : contours.slices) {
+        std::vector<std::size_t> ids;
+        std::vector<Contour> subset;
+        for (std::size_t c = 0; c < set.contours.size(); ++c) {
+            if (set.contours[c].label == label) {
+                ids.push_back(c);
+                subset.push_back(set.contours[c]);
+            }
+        }
+        if (subset.empty()) {
+            continue;
+        }
+        simplify_contours(subset, simplify);
+        for (std::size_t j = 0; j < ids.size(); ++j) {
+            set.contours[ids[j]] = std::move(subset[j]);
+        }
+    }
+}
+
 }  // namespace
 
 Reconstruction reconstruct(const SliceStack& stack,
@@ -238,6 +264,37 @@ Reconstruction reconstruct(const SliceStack& stack,
             unsnapped[i] = quantize_and_verify(stack, result.slice_spacing_px, options.quantize,
                                                options.verify, result.surfaces[i]);
         });
+        // Contour vertices at pixel-edge midpoints can leave two surface vertices closer than
+        // the finest grid; such a label is built again from contours simplified at pixel corners.
+        std::vector<std::size_t> redo;
+        for (std::size_t i = 0; i < unsnapped.size(); ++i) {
+            if (options.quantize.enabled && contour_options.edge_midpoints &&
+                result.surfaces[i].grid_step == 0.0 && !unsnapped[i].empty()) {
+                redo.push_back(i);
+            }
+        }
+        if (!redo.empty()) {
+            TriangulateOptions again = triangulate_options;
+            again.progress = nullptr;
+            for (const std::size_t i : redo) {
+                simplify_at_corners(result.contours, result.surfaces[i].label,
+                                    contour_options.tolerance_px);
+                again.labels.push_back(result.surfaces[i].label);
+            }
+            result.medial_axes =
+                extract_medial_axes(result.contours, result.fields, medial_options);
+            std::vector<ObjectSurface> rebuilt = triangulate_surfaces(
+                stack, result.contours, result.fields, result.medial_axes, again);
+            for (std::size_t j = 0; j < redo.size(); ++j) {
+                const std::size_t i = redo[j];
+                report.warn(
+                    "contours", "label " + std::to_string(result.surfaces[i].label),
+                    "built again with contour vertices at pixel corners only: " + unsnapped[i]);
+                result.surfaces[i] = std::move(rebuilt[j]);
+                unsnapped[i] = quantize_and_verify(stack, result.slice_spacing_px, options.quantize,
+                                                   options.verify, result.surfaces[i]);
+            }
+        }
         clock.done(options.quantize.enabled ? "quantize+verify" : "verify");
         for (std::size_t i = 0; i < unsnapped.size(); ++i) {
             if (!unsnapped[i].empty()) {

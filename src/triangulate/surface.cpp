@@ -1457,7 +1457,8 @@ std::vector<ObjectSurface> triangulate_surfaces(const SliceStack& stack,
                                                 const std::vector<SliceDistanceFields>& fields,
                                                 const std::vector<MedialAxis>& medial_axes,
                                                 const TriangulateOptions& options) {
-    const std::vector<std::uint16_t> labels = contour_labels(contours);
+    const std::vector<std::uint16_t> labels =
+        options.labels.empty() ? contour_labels(contours) : options.labels;
     std::vector<ObjectSurface> surfaces(labels.size());
     std::atomic<std::size_t> done{0};
     std::mutex progress_mutex;

@@ -24,6 +24,8 @@ struct TriangulateOptions {
     unsigned refine_rounds = 12;
     unsigned threads = 0;  ///< worker threads, 0 = all cores; output identical for any count
     ProgressFn progress;   ///< called per label (may be empty)
+    /// The labels to triangulate, increasing; empty: every label with contours.
+    std::vector<std::uint16_t> labels;
 };
 
 /// Something the triangulation could not do as the semantics ask, for one slab of one label.
@@ -83,7 +85,8 @@ struct ObjectSurface {
 /// a vertical wall. Regions without a partner on the next (previous) slice are closed by a planar
 /// cap in their own plane; a region alone on its slice becomes a slab of thickness d/2.
 /// Contour edges are shared exactly between the slabs and caps on both sides of a slice.
-/// Output: labels in increasing order, vertices without duplicates, triangles outward CCW.
+/// Output: labels in increasing order (`options.labels` when given), vertices without
+/// duplicates, triangles outward CCW.
 std::vector<ObjectSurface> triangulate_surfaces(const SliceStack& stack,
                                                 const SliceContours& contours,
                                                 const std::vector<SliceDistanceFields>& fields,
