@@ -553,6 +553,7 @@ int run_build(const BuildOptions& options) {
                   {"slabs", surface.slabs},
                   {"caps", surface.caps},
                   {"steiner_points", surface.steiner_points},
+                  {"fallback_corner_slices", surface.at_corners.size()},
                   {"fallback_unsimplified_slices", surface.unsimplified_slices},
                   {"fallback_split_slabs", surface.split_slabs},
                   {"verified", surface.verification.ok()},

@@ -76,20 +76,6 @@ TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const
     return world;
 }
 
-double full_resolution_error_px(const SliceContours& contours, std::uint16_t label) {
-    double error = 0.0;
-    for (const SliceContourSet& set : contours.slices) {
-        for (const Contour& contour : set.contours) {
-            if (contour.label == label) {
-                for (const double d : contour.edge_deviation_px) {
-                    error = std::max(error, d);
-                }
-            }
-        }
-    }
-    return error;
-}
-
 void verify_surface(const SliceStack& stack, ObjectSurface& surface) {
     ObjectSurface::Verification& v = surface.verification;
     v = {};
@@ -337,8 +323,7 @@ Reconstruction reconstruct(const SliceStack& stack,
                 kept[i] = "surface failed verification; kept at full resolution only";
             }
             result.models[i] = build_multires_mesh(
-                surface.mesh, meter,
-                full_resolution_error_px(result.contours, surface.label) + surface.grid_shift_px,
+                surface.mesh, meter, surface.contour_deviation_px + surface.grid_shift_px,
                 label_options);
             result.models[i].grid_step = surface.grid_step;
             if (options.progress) {

@@ -21,6 +21,7 @@
 #include <CGAL/intersections.h>
 
 #include "contours/extract_contours.h"
+#include "contours/simplify_contours.h"
 #include "core/parallel.h"
 
 namespace strata {
@@ -1238,8 +1239,10 @@ ObjectSurface LabelSurface::build() {
 
 /// Builds one label's surface. Where simplified contours overlap in another pattern than the
 /// pixels (the surface would get the wrong topology), the label's contours on both slices of
-/// that slab fall back to their original, unsimplified polygons (exactly the pixel boundary,
-/// so the error bound holds trivially) and the label is built again, a few times at most.
+/// that slab are simplified again with vertices at pixel corners only (where they had
+/// edge-midpoint vertices), then fall back to their original, unsimplified polygons (exactly the
+/// pixel boundary, so the error bound holds trivially); the label is built again each time, a
+/// few times at most.
 /// Where contours meet at a saddle corner v the tracer cuts the corner on one side (foreground
 /// 8-connected). Moves that cut to distance r of v and cuts the opposite corner by the same
 /// amount, so the region covers a small diamond around v: it overlaps whichever of the two
@@ -1389,6 +1392,21 @@ Levels split_slabs(const SliceStack& stack,
     return levels;
 }
 
+/// The largest deviation of `label`'s simplified contours from their original points, px.
+double contour_deviation_px(const SliceContours& contours, std::uint16_t label) {
+    double deviation = 0.0;
+    for (const SliceContourSet& set : contours.slices) {
+        for (const Contour& contour : set.contours) {
+            if (contour.label == label) {
+                for (const double d : contour.edge_deviation_px) {
+                    deviation = std::max(deviation, d);
+                }
+            }
+        }
+    }
+    return deviation;
+}
+
 ObjectSurface build_label_surface(const SliceStack& stack,
                                   const SliceContours& contours,
                                   const std::vector<SliceDistanceFields>& fields,
@@ -1398,16 +1416,46 @@ ObjectSurface build_label_surface(const SliceStack& stack,
     LabelSurface first(contours, fields, medial_axes, options, label);
     ObjectSurface surface = first.build();
     if (first.mismatched_slabs().empty()) {
+        surface.contour_deviation_px = contour_deviation_px(contours, label);
         return surface;
     }
     SliceContours exact = contours;
+    std::vector<bool> at_corners(contours.slices.size(), false);
     std::vector<bool> unsimplified(contours.slices.size(), false);
+    // The label's contours on `slice` simplified with vertices at pixel corners only; false when
+    // that changes nothing (they have no edge-midpoint vertices).
+    const auto simplify_at_corners = [&](std::uint32_t slice) {
+        std::vector<Contour*> own;
+        std::vector<Contour> subset;
+        for (Contour& c : exact.slices[slice].contours) {
+            if (c.label == label) {
+                own.push_back(&c);
+                subset.push_back(c);
+            }
+        }
+        SimplifyOptions corners;
+        corners.tolerance_px = contours.tolerance_px;
+        corners.edge_midpoints = false;
+        simplify_contours(subset, corners);
+        bool changed = false;
+        for (std::size_t j = 0; j < own.size(); ++j) {
+            changed = changed || subset[j].simplified != own[j]->simplified;
+            *own[j] = std::move(subset[j]);
+        }
+        return changed;
+    };
     std::vector<std::uint32_t> mismatched = first.mismatched_slabs();
-    for (int attempt = 0; attempt < 2 && !mismatched.empty(); ++attempt) {
+    for (int attempt = 0; attempt < 3 && !mismatched.empty(); ++attempt) {
         for (std::uint32_t k : mismatched) {
             for (std::uint32_t slice : {k, k + 1}) {
                 if (unsimplified[slice]) {
                     continue;
+                }
+                if (!at_corners[slice]) {
+                    at_corners[slice] = true;
+                    if (simplify_at_corners(slice)) {
+                        continue;
+                    }
                 }
                 unsimplified[slice] = true;
                 for (Contour& c : exact.slices[slice].contours) {
@@ -1439,12 +1487,17 @@ ObjectSurface build_label_surface(const SliceStack& stack,
             issue.lower_slice = levels.slice_of[issue.lower_slice];
         }
         surface.split_slabs = std::uint32_t(mismatched.size());
+        surface.contour_deviation_px = contour_deviation_px(levels.contours, label);
+    } else {
+        surface.contour_deviation_px = contour_deviation_px(exact, label);
     }
     surface.unsimplified_slices =
         std::uint32_t(std::count(unsimplified.begin(), unsimplified.end(), true));
     for (std::uint32_t k = 0; k < unsimplified.size(); ++k) {
         if (unsimplified[k]) {
             surface.unsimplified.push_back(k);
+        } else if (at_corners[k]) {
+            surface.at_corners.push_back(k);
         }
     }
     return surface;

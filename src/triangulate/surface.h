@@ -49,9 +49,16 @@ struct ObjectSurface {
     /// simplified ones overlapped their neighbours unlike the pixels.
     std::uint32_t unsimplified_slices = 0;
     std::vector<std::uint32_t> unsimplified;  ///< those slices, increasing
+    /// Slices whose contours of this label were simplified again with vertices at pixel corners
+    /// only (SimplifyOptions::edge_midpoints off), for the same reason, and then overlapped
+    /// their neighbours like the pixels; increasing, none of them in `unsimplified`.
+    std::vector<std::uint32_t> at_corners;
     /// Last-resort fallback count: slabs split at the pixels' AND layer (a contour level half
     /// way between the slices) because even the original contours overlapped unlike the pixels.
     std::uint32_t split_slabs = 0;
+    /// The largest deviation (px) of the simplified contours the surface was built from (after
+    /// the fallbacks) from the original contour points: its full-resolution bound.
+    double contour_deviation_px = 0.0;
     std::uint32_t failed_slabs = 0;  ///< slabs refinement could not make valid
     std::vector<SlabIssue> issues;   ///< one per mismatch or failure, sorted by slice
 

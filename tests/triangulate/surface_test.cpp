@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "contours/simplify_contours.h"
 #include "core/report.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
@@ -61,12 +62,26 @@ SurfaceSummary summarise(const Reconstruction& result, bool self_intersections) 
             }
         }
         // Slice fidelity: the section of the surface with every slice plane is the contour the
-        // surface was built from (simplified, or original where the fallback used it), up to the
-        // quantize stage's declared move of slice-plane vertices (0 when not snapped).
+        // surface was built from (simplified; simplified at pixel corners or original where a
+        // fallback used that), up to the quantize stage's declared move of slice-plane
+        // vertices (0 when not snapped).
         for (std::uint32_t k = 0; k < result.contours.slices.size(); ++k) {
             SliceContourSet set = result.contours.slices[k];
             const bool original =
                 std::binary_search(surface.unsimplified.begin(), surface.unsimplified.end(), k);
+            if (std::binary_search(surface.at_corners.begin(), surface.at_corners.end(), k)) {
+                std::vector<Contour> own;
+                for (const Contour& c : set.contours) {
+                    if (c.label == surface.label) {
+                        own.push_back(c);
+                    }
+                }
+                SimplifyOptions corners;
+                corners.tolerance_px = result.contours.tolerance_px;
+                corners.edge_midpoints = false;
+                simplify_contours(own, corners);
+                set.contours = own;
+            }
             for (Contour& c : set.contours) {
                 if (original) {
                     c.simplified.resize(c.points.size());
