@@ -61,10 +61,6 @@ SliceFrame slice_frame(const SliceStack& stack, double slice_spacing_px);
 /// reversed when the affine mirrors (negative determinant) so they still face outwards.
 TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const TriMesh& mesh);
 
-/// The error bound (px) of a label's full-resolution surface: the largest deviation of its
-/// simplified contours from the original ones (the surface meets every slice plane in them).
-double full_resolution_error_px(const SliceContours& contours, std::uint16_t label);
-
 /// Fills `surface.verification` (see ObjectSurface::Verification) against `stack`'s label.
 void verify_surface(const SliceStack& stack, ObjectSurface& surface);
 

@@ -1183,11 +1183,9 @@ void run_case(const std::string& spec,
                 if (surface.verification.done && !surface.verification.ok()) {
                     multires.max_levels = 0;
                 }
-                models[i] =
-                    build_multires_mesh(surface.mesh, meter,
-                                        full_resolution_error_px(result.contours, surface.label) +
-                                            surface.grid_shift_px,
-                                        multires);
+                models[i] = build_multires_mesh(
+                    surface.mesh, meter, surface.contour_deviation_px + surface.grid_shift_px,
+                    multires);
                 models[i].grid_step = surface.grid_step;
             }
             SweepRow row;
