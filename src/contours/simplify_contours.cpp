@@ -851,4 +851,25 @@ std::size_t simplify_contours(std::vector<Contour>& contours, const SimplifyOpti
     return reinserted;
 }
 
+bool resimplify_label(SliceContourSet& set, std::uint16_t label, const SimplifyOptions& options) {
+    std::vector<Contour*> own;
+    std::vector<Contour> subset;
+    for (Contour& c : set.contours) {
+        if (c.label == label) {
+            own.push_back(&c);
+            subset.push_back(c);
+        }
+    }
+    if (subset.empty()) {
+        return false;
+    }
+    simplify_contours(subset, options);
+    bool changed = false;
+    for (std::size_t j = 0; j < own.size(); ++j) {
+        changed = changed || subset[j].simplified != own[j]->simplified;
+        *own[j] = std::move(subset[j]);
+    }
+    return changed;
+}
+
 }  // namespace strata

@@ -67,4 +67,10 @@ std::vector<std::uint32_t> simplify_closed_polyline(std::span<const Vec2> points
 /// (the input contours were not simple and disjoint).
 std::size_t simplify_contours(std::vector<Contour>& contours, const SimplifyOptions& options);
 
+/// Simplifies the contours of `label` in `set` again with `options` (`simplify_contours` on
+/// them alone, in place; contours of other labels are independent). Returns whether any
+/// simplified polygon changed. The fallbacks use it to put a label's vertices back at pixel
+/// corners (`edge_midpoints` off).
+bool resimplify_label(SliceContourSet& set, std::uint16_t label, const SimplifyOptions& options);
+
 }  // namespace strata

@@ -179,31 +179,6 @@ std::string quantize_and_verify(const SliceStack& stack,
     return "kept unsnapped (no progressive export): " + why;
 }
 
-/// Simplifies the contours of `label` again with their vertices at pixel corners only
-/// (SimplifyOptions::edge_midpoints off). Their points stay, and with them the distance fields.
-void simplify_at_corners(SliceContours& contours, std::uint16_t label, double tolerance_px) {
-    SimplifyOptions simplify;
-    simplify.tolerance_px = tolerance_px;
-    simplify.edge_midpoints = false;
-    for (SliceContourSet& set : contours.slices) {
-        std::vector<std::size_t> ids;
-        std::vector<Contour> subset;
-        for (std::size_t c = 0; c < set.contours.size(); ++c) {
-            if (set.contours[c].label == label) {
-                ids.push_back(c);
-                subset.push_back(set.contours[c]);
-            }
-        }
-        if (subset.empty()) {
-            continue;
-        }
-        simplify_contours(subset, simplify);
-        for (std::size_t j = 0; j < ids.size(); ++j) {
-            set.contours[ids[j]] = std::move(subset[j]);
-        }
-    }
-}
-
 }  // namespace
 
 Reconstruction reconstruct(const SliceStack& stack,
@@ -262,9 +237,13 @@ Reconstruction reconstruct(const SliceStack& stack,
         if (!redo.empty()) {
             TriangulateOptions again = triangulate_options;
             again.progress = nullptr;
+            SimplifyOptions corners;
+            corners.tolerance_px = contour_options.tolerance_px;
+            corners.edge_midpoints = false;
             for (const std::size_t i : redo) {
-                simplify_at_corners(result.contours, result.surfaces[i].label,
-                                    contour_options.tolerance_px);
+                for (SliceContourSet& set : result.contours.slices) {
+                    resimplify_label(set, result.surfaces[i].label, corners);
+                }
                 again.labels.push_back(result.surfaces[i].label);
             }
             result.medial_axes =

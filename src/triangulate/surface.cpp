@@ -1422,28 +1422,9 @@ ObjectSurface build_label_surface(const SliceStack& stack,
     SliceContours exact = contours;
     std::vector<bool> at_corners(contours.slices.size(), false);
     std::vector<bool> unsimplified(contours.slices.size(), false);
-    // The label's contours on `slice` simplified with vertices at pixel corners only; false when
-    // that changes nothing (they have no edge-midpoint vertices).
-    const auto simplify_at_corners = [&](std::uint32_t slice) {
-        std::vector<Contour*> own;
-        std::vector<Contour> subset;
-        for (Contour& c : exact.slices[slice].contours) {
-            if (c.label == label) {
-                own.push_back(&c);
-                subset.push_back(c);
-            }
-        }
-        SimplifyOptions corners;
-        corners.tolerance_px = contours.tolerance_px;
-        corners.edge_midpoints = false;
-        simplify_contours(subset, corners);
-        bool changed = false;
-        for (std::size_t j = 0; j < own.size(); ++j) {
-            changed = changed || subset[j].simplified != own[j]->simplified;
-            *own[j] = std::move(subset[j]);
-        }
-        return changed;
-    };
+    SimplifyOptions corners;
+    corners.tolerance_px = contours.tolerance_px;
+    corners.edge_midpoints = false;
     std::vector<std::uint32_t> mismatched = first.mismatched_slabs();
     for (int attempt = 0; attempt < 3 && !mismatched.empty(); ++attempt) {
         for (std::uint32_t k : mismatched) {
@@ -1453,7 +1434,7 @@ ObjectSurface build_label_surface(const SliceStack& stack,
                 }
                 if (!at_corners[slice]) {
                     at_corners[slice] = true;
-                    if (simplify_at_corners(slice)) {
+                    if (resimplify_label(exact.slices[slice], label, corners)) {
                         continue;
                     }
                 }

@@ -70,17 +70,10 @@ SurfaceSummary summarise(const Reconstruction& result, bool self_intersections) 
             const bool original =
                 std::binary_search(surface.unsimplified.begin(), surface.unsimplified.end(), k);
             if (std::binary_search(surface.at_corners.begin(), surface.at_corners.end(), k)) {
-                std::vector<Contour> own;
-                for (const Contour& c : set.contours) {
-                    if (c.label == surface.label) {
-                        own.push_back(c);
-                    }
-                }
                 SimplifyOptions corners;
                 corners.tolerance_px = result.contours.tolerance_px;
                 corners.edge_midpoints = false;
-                simplify_contours(own, corners);
-                set.contours = own;
+                resimplify_label(set, surface.label, corners);
             }
             for (Contour& c : set.contours) {
                 if (original) {
