@@ -60,7 +60,7 @@ function fileUnder(root, urlPath) {
 export function parseRange(header, size) {
     if (!header) return null;
     const match = /^bytes=(\d*)-(\d*)$/.exec(header.trim());
-    if (!match) return null;  // multiple ranges or other units: answer with the whole file
+    if (!match) return null; // multiple ranges or other units: answer with the whole file
     const [, a, b] = match;
     let start;
     let end;
@@ -142,11 +142,14 @@ export function startServer({ model, port = 8347, host = '127.0.0.1', log = null
             const modelPath = modelFile ? `?model=model/${encodeURIComponent(basename(modelFile))}` : '';
             const url = `http://${host}:${actual}/${modelPath}`;
             resolvePromise({
-                server, port: actual, url,
-                close: () => new Promise((r) => {
-                    server.closeAllConnections?.();
-                    server.close(() => r());
-                }),
+                server,
+                port: actual,
+                url,
+                close: () =>
+                    new Promise((r) => {
+                        server.closeAllConnections?.();
+                        server.close(() => r());
+                    }),
             });
         });
     });
@@ -184,7 +187,8 @@ async function main(args) {
         }
     }
     if (model === null) usage('no model given');
-    if (!existsSync(model) || !statSync(model).isFile() || !/\.(glb|gltf)$/i.test(model)) usage(`${model}: not a .glb or .gltf file`);
+    if (!existsSync(model) || !statSync(model).isFile() || !/\.(glb|gltf)$/i.test(model))
+        usage(`${model}: not a .glb or .gltf file`);
     if (!existsSync(join(kHere, 'node_modules', 'three', 'build', 'three.module.js'))) {
         usage(`three.js is missing: run \`npm ci\` in ${kHere}`);
     }

@@ -8,8 +8,7 @@
 import { readFile } from 'node:fs/promises';
 import { basename, dirname, resolve } from 'node:path';
 
-const kAllowedExtension = 'STRATA_progressive_mesh';
-const kDraco = 'KHR_draco_mesh_compression';
+import { kDraco, kExtension as kAllowedExtension } from '../../web-viewer/strata-format.js';
 const kSeverities = ['error', 'warning', 'info', 'hint'];
 
 /// The glTF JSON of a .glb or .gltf file's bytes (null when it cannot be parsed).
@@ -90,7 +89,7 @@ async function validateFile(validator, file) {
     }
     const report = await validator.validateBytes(bytes, {
         uri: basename(file),
-        maxIssues: 0,  // unlimited
+        maxIssues: 0, // unlimited
         writeTimestamp: false,
         externalResourceFunction: async (uri) =>
             asBytes(await readFile(resolve(dirname(file), decodeURIComponent(uri)))),
@@ -105,13 +104,15 @@ async function validateFile(validator, file) {
             `${issues.numWarnings} warnings, ${issues.numInfos} infos, ${issues.numHints} hints; ` +
             `${info.drawCallCount ?? 0} draw calls, ${info.totalTriangleCount ?? 0} triangles, ` +
             `${info.totalVertexCount ?? 0} vertices, ${external} external resources, ` +
-            `generator '${info.generator ?? ''}'`);
+            `generator '${info.generator ?? ''}'`,
+    );
     for (const message of issues.messages) {
         const where = message.pointer ?? (message.offset !== undefined ? `@${message.offset}` : '');
         const note = isAllowed(allowed, message) ? ' (allowed)' : '';
         console.log(
             `  ${kSeverities[message.severity] ?? message.severity} ${message.code} ${where}: ` +
-                `${message.message}${note}`);
+                `${message.message}${note}`,
+        );
     }
     return failing.length === 0;
 }
