@@ -355,7 +355,15 @@ int write_extracted(const ExtractOptions& options,
     return 0;
 }
 
-/// `strata extract FILE.glb`: one cut of every object of a progressive file.
+/// True when `a` and `b` are equal but for the case of ASCII letters.
+bool same_text_ignoring_case(const std::string& a, const std::string& b) {
+    return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](unsigned char x, unsigned char y) {
+        return std::tolower(x) == std::tolower(y);
+    });
+}
+
+/// `strata extract FILE.glb`: one cut of every object of a progressive file (or of those
+/// `--labels` selects).
 int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
     if (bound.in_pixels) {
         throw Error(ErrorCode::InvalidInput,
@@ -365,10 +373,38 @@ int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
     }
     const ProgressiveFile file = read_progressive_gltf(options.input);
     const double max_error_m = bound.value / 1000.0;
+    // --labels: each selector a label value ("6") or an object name (case-insensitive), as for
+    // label stacks; one that matches no object is an error naming the available ones.
+    std::vector<bool> wanted(file.objects.size(), options.labels.empty());
+    for (const std::string& selector : options.labels) {
+        bool found = false;
+        for (std::size_t i = 0; i < file.objects.size(); ++i) {
+            const ProgressiveFileObject& object = file.objects[i];
+            if ((object.label >= 0 && std::to_string(object.label) == selector) ||
+                same_text_ignoring_case(object.name, selector)) {
+                wanted[i] = true;
+                found = true;
+            }
+        }
+        if (!found) {
+            std::string available;
+            for (const ProgressiveFileObject& object : file.objects) {
+                available += (available.empty() ? "" : ", ") + std::to_string(object.label) + " (" +
+                             object.name + ")";
+            }
+            throw Error(ErrorCode::InvalidInput,
+                        "--labels: '" + selector + "' matches no object of " + options.input +
+                            "; available: " + (available.empty() ? "none" : available));
+        }
+    }
     std::vector<SceneObject> scene;
     Json objects = Json::array();
     Report report;
-    for (const ProgressiveFileObject& object : file.objects) {
+    for (std::size_t i = 0; i < file.objects.size(); ++i) {
+        if (!wanted[i]) {
+            continue;
+        }
+        const ProgressiveFileObject& object = file.objects[i];
         const MultiresCut cut = select_cut_by_error(object.model, max_error_m);
         SceneObject out;
         out.name = object.name;
