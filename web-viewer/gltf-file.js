@@ -90,3 +90,36 @@ export function coalesceRanges(json, views, maxGap = 0, maxLength = Infinity) {
     }
     return ranges;
 }
+
+/// The distinct bytes fetched of each file: a set of disjoint [start, end) intervals per key (URL),
+/// so that bytes fetched twice (a range overlapping an earlier one) are counted once.
+export class ByteCoverage {
+    constructor() {
+        this.files = new Map(); // key -> sorted disjoint [start, end) pairs
+        this.size = 0;
+    }
+
+    /// Adds [start, end) of key; returns the number of bytes not covered before.
+    add(key, start, end) {
+        if (!(end > start)) return 0;
+        const list = this.files.get(key) ?? [];
+        let added = end - start;
+        const out = [];
+        let lo = start;
+        let hi = end;
+        for (const [a, b] of list) {
+            if (b < lo || a > hi) {
+                out.push([a, b]);
+                continue;
+            }
+            added -= Math.max(0, Math.min(b, end) - Math.max(a, start)); // overlap with [start, end)
+            lo = Math.min(lo, a);
+            hi = Math.max(hi, b);
+        }
+        out.push([lo, hi]);
+        out.sort((x, y) => x[0] - y[0]);
+        this.files.set(key, out);
+        this.size += added;
+        return added;
+    }
+}

@@ -38,7 +38,7 @@ import {
     sphereMeetsRoi,
     validateExtension,
 } from './selection.js';
-import { coalesceRanges, glbLayout, meshBufferViews, progressiveNodes } from './gltf-file.js';
+import { ByteCoverage, coalesceRanges, glbLayout, meshBufferViews, progressiveNodes } from './gltf-file.js';
 import { kDraco, kExtension, kThreeAttributes } from './strata-format.js';
 
 const kDefaults = {
@@ -52,6 +52,7 @@ const kDefaults = {
     maxRangeBytes: 1 << 20, // ... up to this length
     source: null, // set by loadStrataModel: { kind: 'glb-range', url, binOffset, length, prefix }
     initialBytes: 0, // bytes fetched before GLTFLoader ran (loadStrataModel: the JSON)
+    initialRanges: [], // ... as [url, start, end) triples (distinct bytes are counted once)
     totalBytes: 0, // total size of the model's files, when known
     fetch: null, // fetch function (default globalThis.fetch)
     onChange: null, // called when a chunk arrives (an app that renders on demand re-renders)
@@ -61,23 +62,32 @@ const kDefaults = {
 // byte sources
 
 /// Fetches [start, end) of url with a Range request; a server that answers 200 gives the whole
-/// file, which is then kept (whole) for later ranges of the same url.
+/// file, which is then kept (whole) for later ranges of the same url. stats.bytesFetched counts
+/// every byte received, stats.bytesLoaded the distinct bytes of the model's files (so it never
+/// exceeds their size).
 class RangeFetcher {
-    constructor(fetchFn, stats) {
+    constructor(fetchFn, stats, coverage) {
         this.fetch = fetchFn;
         this.stats = stats;
+        this.coverage = coverage;
         this.whole = new Map(); // url -> Promise<ArrayBuffer> when ranges are not supported
     }
 
-    async range(url, start, end) {
+    count(url, start, bytes) {
+        ++this.stats.requests;
+        this.stats.bytesFetched += bytes;
+        this.stats.bytesLoaded += this.coverage.add(url, start, start + bytes);
+    }
+
+    /// signal: an AbortSignal (the request is dropped when it becomes obsolete).
+    async range(url, start, end, signal = undefined) {
         if (this.whole.has(url)) {
             return (await this.whole.get(url)).slice(start, end);
         }
-        const response = await this.fetch(url, { headers: { Range: `bytes=${start}-${end - 1}` } });
+        const response = await this.fetch(url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal });
         if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
         const body = await response.arrayBuffer();
-        ++this.stats.requests;
-        this.stats.bytesLoaded += body.byteLength;
+        this.count(url, response.status === 206 ? start : 0, body.byteLength);
         if (response.status === 206) {
             if (body.byteLength !== end - start)
                 throw new Error(`${url}: range ${start}-${end} gave ${body.byteLength} bytes`);
@@ -95,8 +105,7 @@ class RangeFetcher {
                     const response = await this.fetch(url);
                     if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
                     const body = await response.arrayBuffer();
-                    ++this.stats.requests;
-                    this.stats.bytesLoaded += body.byteLength;
+                    this.count(url, 0, body.byteLength);
                     return body;
                 })(),
             );
@@ -294,8 +303,12 @@ export class StrataProgressivePlugin {
         this.name = kExtension;
         this.parser = parser;
         this.options = { ...kDefaults, ...options };
+        // distinct bytes per file: the ranges read before GLTFLoader ran, then every fetch
+        this.coverage = new ByteCoverage();
+        for (const [url, start, end] of this.options.initialRanges) this.coverage.add(url, start, end);
         this.stats = {
-            bytesLoaded: this.options.initialBytes,
+            bytesLoaded: this.options.initialRanges.length > 0 ? this.coverage.size : this.options.initialBytes,
+            bytesFetched: this.options.initialBytes,
             bytesTotal: this.options.totalBytes,
             requests: 0,
             chunksLoaded: 0,
@@ -303,7 +316,11 @@ export class StrataProgressivePlugin {
             chunkBytesLoaded: 0,
             failures: 0,
         };
-        this.fetcher = new RangeFetcher(this.options.fetch ?? globalThis.fetch.bind(globalThis), this.stats);
+        this.fetcher = new RangeFetcher(
+            this.options.fetch ?? globalThis.fetch.bind(globalThis),
+            this.stats,
+            this.coverage,
+        );
         this.controllers = [];
         this.chunkViews = new Map(); // bufferView index -> { nodeIndex, cluster } of every chunk
         this.controllerOf = new Map(); // node index -> controller
@@ -716,19 +733,23 @@ export async function loadStrataModel(
     const kPrefix = prefixBytes;
     let bytesRead = 0;
     let requests = 0;
+    const ranges = []; // [url, start, end) read here
     const response = await doFetch(absolute, { headers: { Range: `bytes=0-${kPrefix - 1}` } });
     if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
     let prefix = await response.arrayBuffer();
     bytesRead += prefix.byteLength;
     ++requests;
+    ranges.push([absolute, 0, prefix.byteLength]);
     const partial = response.status === 206;
     const total = partial ? Number(response.headers.get('Content-Range')?.split('/')[1]) : prefix.byteLength;
     // appends bytes [prefix.byteLength, end) of the file to `prefix` (one Range request)
     const extendPrefix = async (end) => {
         const more = await doFetch(absolute, { headers: { Range: `bytes=${prefix.byteLength}-${end - 1}` } });
+        if (more.status !== 206) throw new Error(`${url}: HTTP ${more.status} for a range request`);
         const rest = await more.arrayBuffer();
         bytesRead += rest.byteLength;
         ++requests;
+        ranges.push([absolute, prefix.byteLength, prefix.byteLength + rest.byteLength]);
         const joined = new Uint8Array(prefix.byteLength + rest.byteLength);
         joined.set(new Uint8Array(prefix), 0);
         joined.set(new Uint8Array(rest), prefix.byteLength);
@@ -755,6 +776,7 @@ export async function loadStrataModel(
             (json.buffers ?? []).reduce((s, b) => s + (b.uri && !b.uri.startsWith('data:') ? b.byteLength : 0), 0);
     }
     options.initialBytes = bytesRead;
+    options.initialRanges = ranges;
     const loader = createLoader();
     let plugin = null;
     loader.register((parser) => (plugin = new StrataProgressivePlugin(parser, options)));

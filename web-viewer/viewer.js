@@ -54,6 +54,15 @@ function createLoader() {
 
 window.addEventListener('resize', () => {
     camera.aspect = window.innerWidth / window.innerHeight;
+    if (camera.view?.enabled)
+        camera.setViewOffset(
+            window.innerWidth,
+            window.innerHeight,
+            camera.view.offsetX,
+            0,
+            window.innerWidth,
+            window.innerHeight,
+        );
     camera.updateProjectionMatrix();
     renderer.setSize(window.innerWidth, window.innerHeight);
 });
@@ -192,19 +201,43 @@ function show(result, name) {
 }
 
 /// Anterior view of the whole scene (glTF X = patient left, Y = superior, Z = anterior): the camera
-/// in front of the patient, looking posterior, superior up.
+/// in front of the patient, looking posterior, superior up, as close as it can be while every
+/// corner of the scene's bounding box (of the base meshes, exact) is inside the part of the canvas
+/// that the side panel leaves free, with a 5 % margin; the view is shifted so that this part's
+/// centre is the orbit target.
 function fitCamera() {
-    const sphere = strata
-        ? strata.sceneSphere()
-        : new THREE.Box3().setFromObject(gltf.scene).getBoundingSphere(new THREE.Sphere());
-    const radius = Math.max(sphere.radius, 1e-3);
-    const distance = (radius / Math.sin(THREE.MathUtils.degToRad(camera.fov) / 2)) * 1.05;
-    camera.position.copy(sphere.center).add(new THREE.Vector3(0, 0, distance));
+    gltf.scene.updateMatrixWorld(true);
+    const box = new THREE.Box3().setFromObject(gltf.scene);
+    if (box.isEmpty()) box.setFromCenterAndSize(new THREE.Vector3(), new THREE.Vector3(1, 1, 1));
+    const center = box.getCenter(new THREE.Vector3());
+    const radius = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1e-3);
+    const width = window.innerWidth;
+    const height = window.innerHeight;
+    // the free part of the canvas: right of the side panel (when the canvas is wide enough)
+    const panel = $('side').getBoundingClientRect();
+    const left = panel.right + 10 < width * 0.6 ? panel.right + 10 : 0;
+    const freeWidth = width - left;
+    camera.aspect = width / height;
+    if (left > 0) camera.setViewOffset(width, height, -left / 2, 0, width, height);
+    else camera.clearViewOffset();
+    const tanY = Math.tan(THREE.MathUtils.degToRad(camera.fov) / 2) * 0.95;
+    const tanX = tanY * (freeWidth / height);
+    // camera on +Z looking at -Z: a corner at (x, y, z) relative to the centre is inside when
+    // |x| <= tanX (d - z) and |y| <= tanY (d - z)
+    let distance = 0;
+    for (let i = 0; i < 8; ++i) {
+        const x = (i & 1 ? box.max.x : box.min.x) - center.x;
+        const y = (i & 2 ? box.max.y : box.min.y) - center.y;
+        const z = (i & 4 ? box.max.z : box.min.z) - center.z;
+        distance = Math.max(distance, z + Math.abs(x) / tanX, z + Math.abs(y) / tanY);
+    }
+    distance = Math.max(distance, radius * 0.01);
+    camera.position.copy(center).add(new THREE.Vector3(0, 0, distance));
     camera.up.set(0, 1, 0);
     camera.near = radius / 200;
     camera.far = distance + radius * 50;
     camera.updateProjectionMatrix();
-    controls.target.copy(sphere.center);
+    controls.target.copy(center);
     controls.minDistance = radius / 500;
     controls.update();
     $('roi-radius').max = String(Math.max(10, Math.round(radius * 1000)));

@@ -4,6 +4,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdtempSync, readFileSync, rmSync, writeFileSync, mkdirSync } from 'node:fs';
+import { spawn } from 'node:child_process';
 import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -222,6 +223,56 @@ test('serve.mjs: ranges, MIME types, no way out of its folders', async () => {
             assert.equal(r.status, 405);
         } finally {
             await server.close();
+        }
+    } finally {
+        rmSync(dir, { recursive: true, force: true });
+    }
+});
+
+/// Runs `node serve.mjs ARGS` until it exits (or kills it after timeoutMs): { code, stdout, stderr }.
+function runServe(args, timeoutMs = 10000) {
+    return new Promise((resolvePromise) => {
+        const child = spawn(process.execPath, [join(kHere, '..', 'serve.mjs'), ...args]);
+        let stdout = '';
+        let stderr = '';
+        child.stdout.on('data', (d) => (stdout += d));
+        child.stderr.on('data', (d) => (stderr += d));
+        const timer = setTimeout(() => child.kill('SIGKILL'), timeoutMs);
+        child.on('close', (code, signal) => {
+            clearTimeout(timer);
+            resolvePromise({ code, signal, stdout, stderr });
+        });
+    });
+}
+
+test('serve.mjs: a missing model, a folder or a taken port give one clear line and exit 2, no stack trace', async () => {
+    const dir = mkdtempSync(join(tmpdir(), 'strata-serve-errors-'));
+    try {
+        const model = join(dir, 'model.glb');
+        writeFileSync(model, new Uint8Array(100));
+        const stackTrace = /^\s+at |node:internal|Error: listen/m;
+        let r = await runServe([join(dir, 'missing.glb')]);
+        assert.equal(r.code, 2, r.stderr);
+        assert.match(r.stderr, /missing\.glb: no such file/);
+        assert.doesNotMatch(r.stderr, /not a \.glb/);
+        assert.doesNotMatch(r.stderr, stackTrace);
+        r = await runServe([dir]);
+        assert.equal(r.code, 2, r.stderr);
+        assert.match(r.stderr, /a folder, expected a \.glb or \.gltf file/);
+        writeFileSync(join(dir, 'notes.txt'), 'x');
+        r = await runServe([join(dir, 'notes.txt')]);
+        assert.equal(r.code, 2, r.stderr);
+        assert.match(r.stderr, /not a \.glb or \.gltf file/);
+        // a port another server holds
+        const other = await startServer({ model, port: 0 });
+        try {
+            r = await runServe([model, '--port', String(other.port)]);
+            assert.equal(r.code, 2, `exit ${r.code} ${r.signal}: ${r.stderr}`);
+            assert.match(r.stderr, new RegExp(`port ${other.port} on 127\\.0\\.0\\.1 is already in use`));
+            assert.doesNotMatch(r.stderr, stackTrace);
+            assert.equal(r.stderr.trim().split('\n').length, 1, r.stderr);
+        } finally {
+            await other.close();
         }
     } finally {
         rmSync(dir, { recursive: true, force: true });

@@ -1,7 +1,9 @@
 // node --test web-viewer/test/
 // The selection logic (selection.js) on real DAGs written by `strata build`: the model file is
 // given by the environment variable STRATA_VIEWER_MODEL (a .glb; a .gltf with its buffer files
-// works too). Without it the tests are skipped with a message.
+// works too); without it the tests build one (test-model.mjs), or fail.
+// The expected cuts come from an oracle written here from the spec's definitions (sets of
+// ancestors on the extension's own lists), not from selection.js's passes.
 //
 // For many random cameras, thresholds, budgets, regions of interest and loaded-chunk sets:
 //   * the refined set is closed upward; the drawn clusters are the stateless rule's;
@@ -19,25 +21,12 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { dirname, resolve } from 'node:path';
-import {
-    buildDag,
-    clusterTriangleCounts,
-    cutForPredicate,
-    drawnClusters,
-    groupScreenSpaceError,
-    isClosedUpward,
-    selectCut,
-    sphereInFrustum,
-    sphereMeetsRoi,
-    cutStats,
-} from '../selection.js';
+import { buildDag, clusterTriangleCounts, drawnClusters, selectCut, cutStats } from '../selection.js';
 import { parseGlb, progressiveNodes } from '../gltf-file.js';
 import { kDraco } from '../strata-format.js';
+import { testModel } from './test-model.mjs';
 
-const kModel = process.env.STRATA_VIEWER_MODEL;
-const kSkip = kModel
-    ? false
-    : 'STRATA_VIEWER_MODEL is not set: give it a .glb written by `strata build` (CTest sets it from the build_scene fixture)';
+const kModel = testModel();
 const kTrials = Number(process.env.STRATA_VIEWER_TRIALS ?? 300);
 
 // ------------------------------------------------------------------------------------------------
@@ -163,6 +152,91 @@ function frustumPlanes(eye, target, fovy, aspect, near, far) {
 }
 
 // ------------------------------------------------------------------------------------------------
+// the oracle: the spec's definitions (schema/README.md, "Selecting a cut", "Streaming") evaluated
+// on the extension's own cluster and group lists, as sets, without selection.js
+
+/// Per group, the set of groups above it (ancestors: consumers of its produced clusters, their
+/// consumers, ...), from ext.groups[g].produced and the groups' consumed lists.
+function ancestorSets(ext) {
+    const consumerOf = new Map();
+    ext.groups.forEach((group, g) => group.consumed.forEach((c) => consumerOf.set(c, g)));
+    const memo = new Array(ext.groups.length);
+    const above = (g) => {
+        if (memo[g] === undefined) {
+            const out = new Set();
+            for (const c of ext.groups[g].produced) {
+                const p = consumerOf.get(c);
+                if (p === undefined) continue;
+                out.add(p);
+                for (const q of above(p)) out.add(q);
+            }
+            memo[g] = out;
+        }
+        return memo[g];
+    };
+    return ext.groups.map((_, g) => above(g));
+}
+
+/// The refined set the spec defines for predicate P (and a loaded set): g is refined iff P holds
+/// for g or for some group below g (upward closure), and every group in g's ancestors-or-self has
+/// its consumed clusters loaded (the streaming restriction). Returns a Uint8Array.
+function oracleRefined(ext, ancestors, predicate, isLoaded = null) {
+    const ng = ext.groups.length;
+    const wanted = new Uint8Array(ng);
+    for (let g = 0; g < ng; ++g) {
+        if (!predicate(g)) continue;
+        wanted[g] = 1;
+        for (const a of ancestors[g]) wanted[a] = 1;
+    }
+    const loaded = (g) => isLoaded === null || ext.groups[g].consumed.every((c) => isLoaded(c));
+    const out = new Uint8Array(ng);
+    for (let g = 0; g < ng; ++g) {
+        out[g] = wanted[g] && loaded(g) && [...ancestors[g]].every(loaded) ? 1 : 0;
+    }
+    return out;
+}
+
+/// The spec's draw rule on the extension's lists: c is drawn iff (no producer or producer not
+/// refined) and (no consumer or consumer refined).
+function oracleDrawn(ext, refined) {
+    const producer = new Map();
+    const consumer = new Map();
+    ext.groups.forEach((group, g) => {
+        group.produced.forEach((c) => producer.set(c, g));
+        group.consumed.forEach((c) => consumer.set(c, g));
+    });
+    const out = [];
+    for (let c = 0; c < ext.clusters.length; ++c) {
+        const p = producer.get(c);
+        const q = consumer.get(c);
+        if ((p === undefined || !refined[p]) && (q === undefined || refined[q])) out.push(c);
+    }
+    return out;
+}
+
+/// The spec's screen-space predicate for one group (its JSON sphere and error): in the frustum
+/// (sphere not wholly behind a plane) and sse * factor / tau > 1, sse = error * H / (d * 2 tan(fovy /
+/// 2)), d = |camera - centre| - radius (infinite error at d <= 0), factor = roi.factor where the
+/// sphere meets the region of interest.
+function oracleWants(group, view, tauPx, roi, frustum) {
+    const [x, y, z, r] = group.sphere;
+    for (const [nx, ny, nz, d] of frustum ?? []) {
+        if (nx * x + ny * y + nz * z + d < -r) return false;
+    }
+    const d = Math.hypot(view.position[0] - x, view.position[1] - y, view.position[2] - z) - r;
+    const sse =
+        d > 0 ? (group.error * view.heightPx) / (d * 2 * Math.tan(view.fovy / 2)) : group.error > 0 ? Infinity : 0;
+    const inRoi = roi && Math.hypot(x - roi.center[0], y - roi.center[1], z - roi.center[2]) <= r + roi.radius;
+    const factor = inRoi && roi.factor > 1 ? roi.factor : 1;
+    return (sse * factor) / tauPx > 1;
+}
+
+/// True when every group above a refined group is refined (closed upward), on the oracle's sets.
+function closedUpward(ancestors, refined) {
+    return ancestors.every((above, g) => !refined[g] || [...above].every((a) => refined[a]));
+}
+
+// ------------------------------------------------------------------------------------------------
 // checks
 
 /// No drawn cluster has a drawn ancestor (a cluster produced by its consumer, or by the consumer
@@ -207,7 +281,7 @@ function subset(a, b) {
 
 // ------------------------------------------------------------------------------------------------
 
-test('the model has objects with STRATA_progressive_mesh', { skip: kSkip }, () => {
+test('the model has objects with STRATA_progressive_mesh', () => {
     const { objects } = getModel();
     assert.ok(objects.length > 0, `no node with the extension in ${kModel}`);
     assert.ok(
@@ -234,19 +308,27 @@ test('the model has objects with STRATA_progressive_mesh', { skip: kSkip }, () =
     console.log(`${kModel}: ${objects.map((o) => `${o.name} ${o.dag.nc} clusters/${o.dag.ng} groups`).join(', ')}`);
 });
 
-test('level cuts and uniform-error cuts are valid cuts', { skip: kSkip }, () => {
+test('level cuts and uniform-error cuts are valid cuts', () => {
     const { objects } = getModel();
-    for (const { name, dag } of objects) {
+    for (const { name, dag, ext } of objects) {
+        const ancestors = ancestorSets(ext);
         const levels = Math.max(...dag.groups.map((g) => g.level));
         for (let level = 0; level <= levels; ++level) {
-            const { refined, drawn } = cutForPredicate(dag, (g) => dag.groups[g].level > level);
-            assert.ok(isClosedUpward(dag, refined), `${name} level ${level}: not closed upward`);
+            const refined = oracleRefined(ext, ancestors, (g) => ext.groups[g].level > level);
+            const drawn = oracleDrawn(ext, refined);
+            assert.ok(closedUpward(ancestors, refined), `${name} level ${level}: not closed upward`);
+            assert.deepEqual(
+                drawnClusters(dag, refined),
+                drawn,
+                `${name} level ${level}: selection.js draws other clusters`,
+            );
             assert.equal(coverageProblem(dag, drawn), null, `${name} level ${level}`);
         }
         for (const g of dag.groups) {
             const tau = g.error * 0.999;
-            const { refined, drawn } = cutForPredicate(dag, (h) => dag.error[h] > tau);
-            assert.ok(isClosedUpward(dag, refined));
+            const refined = oracleRefined(ext, ancestors, (h) => ext.groups[h].error > tau);
+            const drawn = oracleDrawn(ext, refined);
+            assert.ok(closedUpward(ancestors, refined));
             assert.equal(coverageProblem(dag, drawn), null, `${name} uniform error ${tau}`);
             assert.ok(
                 cutStats(dag, drawn).maxError <= Math.max(tau, dag.fullResolutionError),
@@ -256,9 +338,10 @@ test('level cuts and uniform-error cuts are valid cuts', { skip: kSkip }, () => 
     }
 });
 
-test('random views, taus, budgets, regions and loaded sets: valid, exact, monotone cuts', { skip: kSkip }, () => {
+test('random views, taus, budgets, regions and loaded sets: valid, exact, monotone cuts', () => {
     const { objects } = getModel();
     const dags = objects.map((o) => o.dag);
+    const ancestors = objects.map((o) => ancestorSets(o.ext));
     const scene = sceneSphere(objects);
     const rnd = random(12345);
     const base = dags.reduce((s, d) => s + d.baseTriangles, 0);
@@ -298,8 +381,8 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
             let triangles = 0;
             result.cuts.forEach((cut, di) => {
                 const dag = dags[di];
-                assert.ok(isClosedUpward(dag, cut.refined), `${where}: ${objects[di].name} not closed upward`);
-                assert.deepEqual(cut.drawn, drawnClusters(dag, cut.refined));
+                assert.ok(closedUpward(ancestors[di], cut.refined), `${where}: ${objects[di].name} not closed upward`);
+                assert.deepEqual(cut.drawn, oracleDrawn(objects[di].ext, cut.refined));
                 assert.equal(coverageProblem(dag, cut.drawn), null, `${where}: ${objects[di].name}`);
                 if (loaded !== null) {
                     for (const c of cut.drawn) assert.ok(loaded[di][c], `${where}: cluster ${c} drawn but not loaded`);
@@ -312,21 +395,14 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
                 triangles += cutStats(dag, cut.drawn).triangles;
                 // against the spec's passes, when nothing limits the cut
                 if (budget === Infinity) {
-                    const factor = (g) =>
-                        roi && roi.factor > 1 && sphereMeetsRoi(dag.sphere, 4 * g, roi) ? roi.factor : 1;
-                    const frustum = cull ? view.frustum : null;
-                    const spec = cutForPredicate(
-                        dag,
-                        (g) =>
-                            sphereInFrustum(dag.sphere, 4 * g, frustum) &&
-                            (groupScreenSpaceError(dag, g, view) * factor(g)) / tauPx > 1,
+                    const ext = objects[di].ext;
+                    const spec = oracleRefined(
+                        ext,
+                        ancestors[di],
+                        (g) => oracleWants(ext.groups[g], view, tauPx, roi, cull ? view.frustum : null),
                         loaded === null ? null : (c) => loaded[di][c] === 1,
                     );
-                    assert.deepEqual(
-                        cut.refined,
-                        spec.refined,
-                        `${where}: ${objects[di].name} differs from the spec's passes`,
-                    );
+                    assert.deepEqual(cut.refined, spec, `${where}: ${objects[di].name} differs from the spec's passes`);
                 }
                 if (cut.refined.some((x) => x)) ++refinedSomething;
             });
@@ -371,82 +447,77 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
     assert.ok(budgetLimited > 0, 'the budget never limited a cut');
 });
 
-test(
-    'drawn clusters of random cuts form closed, consistently oriented surfaces (decoded with draco3d)',
-    { skip: kSkip },
-    async () => {
-        const { json, buffers, objects } = getModel();
-        const draco3d = (await import('draco3d')).default;
-        const draco = await draco3d.createDecoderModule({});
-        // positions of every cluster, as keys of exact float values
-        const keysOf = new Map(); // mesh/primitive -> { keys: string[], index }
-        const clusterTriangles = (cluster) => {
-            const id = `${cluster.mesh}/${cluster.primitive ?? 0}`;
-            if (!keysOf.has(id)) {
-                const primitive = json.meshes[cluster.mesh].primitives[cluster.primitive ?? 0];
-                const ext = primitive.extensions?.[kDraco];
-                let positions;
-                let index;
-                if (ext !== undefined) {
-                    ({ positions, index } = dracoDecode(
-                        draco,
-                        bufferViewBytes(json, buffers, ext.bufferView),
-                        ext.attributes.POSITION,
-                    ));
-                } else {
-                    positions = readAccessor(json, buffers, primitive.attributes.POSITION);
-                    index = readAccessor(json, buffers, primitive.indices);
-                }
-                const keys = [];
-                for (let i = 0; i < positions.length / 3; ++i) {
-                    keys.push(`${positions[3 * i] + 0},${positions[3 * i + 1] + 0},${positions[3 * i + 2] + 0}`);
-                }
-                keysOf.set(id, { keys, index });
+test('drawn clusters of random cuts form closed, consistently oriented surfaces (decoded with draco3d)', async () => {
+    const { json, buffers, objects } = getModel();
+    const draco3d = (await import('draco3d')).default;
+    const draco = await draco3d.createDecoderModule({});
+    // positions of every cluster, as keys of exact float values
+    const keysOf = new Map(); // mesh/primitive -> { keys: string[], index }
+    const clusterTriangles = (cluster) => {
+        const id = `${cluster.mesh}/${cluster.primitive ?? 0}`;
+        if (!keysOf.has(id)) {
+            const primitive = json.meshes[cluster.mesh].primitives[cluster.primitive ?? 0];
+            const ext = primitive.extensions?.[kDraco];
+            let positions;
+            let index;
+            if (ext !== undefined) {
+                ({ positions, index } = dracoDecode(
+                    draco,
+                    bufferViewBytes(json, buffers, ext.bufferView),
+                    ext.attributes.POSITION,
+                ));
+            } else {
+                positions = readAccessor(json, buffers, primitive.attributes.POSITION);
+                index = readAccessor(json, buffers, primitive.indices);
             }
-            const { keys, index } = keysOf.get(id);
-            const out = [];
-            for (let t = 0; t < index.length; t += 3)
-                out.push([keys[index[t]], keys[index[t + 1]], keys[index[t + 2]]]);
-            return out;
-        };
-        const dags = objects.map((o) => o.dag);
-        const scene = sceneSphere(objects);
-        const rnd = random(777);
-        let checked = 0;
-        for (let trial = 0; trial < 16; ++trial) {
-            const view = randomView(rnd, scene);
-            const roi = {
-                center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius),
-                radius: scene.radius * 0.2,
-                factor: 4,
-            };
-            const base = dags.reduce((s, d) => s + d.baseTriangles, 0);
-            const budget = trial % 4 === 1 ? base * (1 + rnd() * 3) : Infinity;
-            const loaded = dags.map((d) =>
-                Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < 0.7 ? 1 : 0)),
-            );
-            const isLoaded = trial % 4 === 2 ? (di, c) => loaded[di][c] === 1 : null;
-            const result = selectCut(dags, view, {
-                tauPx: Math.exp(rnd() * 4) * 0.3,
-                roi: trial % 2 ? roi : null,
-                cull: trial % 3 !== 0,
-                budget,
-                isLoaded,
-            });
-            result.cuts.forEach((cut, di) => {
-                const triangles = cut.drawn.flatMap((c) => clusterTriangles(objects[di].ext.clusters[c]));
-                const problem = closedProblem(triangles);
-                assert.equal(
-                    problem,
-                    null,
-                    `trial ${trial}: ${objects[di].name}, ${cut.drawn.length} clusters: ${problem}`,
-                );
-                ++checked;
-            });
+            const keys = [];
+            for (let i = 0; i < positions.length / 3; ++i) {
+                keys.push(`${positions[3 * i] + 0},${positions[3 * i + 1] + 0},${positions[3 * i + 2] + 0}`);
+            }
+            keysOf.set(id, { keys, index });
         }
-        console.log(`${checked} cuts closed and consistently oriented`);
-    },
-);
+        const { keys, index } = keysOf.get(id);
+        const out = [];
+        for (let t = 0; t < index.length; t += 3) out.push([keys[index[t]], keys[index[t + 1]], keys[index[t + 2]]]);
+        return out;
+    };
+    const dags = objects.map((o) => o.dag);
+    const scene = sceneSphere(objects);
+    const rnd = random(777);
+    let checked = 0;
+    for (let trial = 0; trial < 16; ++trial) {
+        const view = randomView(rnd, scene);
+        const roi = {
+            center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius),
+            radius: scene.radius * 0.2,
+            factor: 4,
+        };
+        const base = dags.reduce((s, d) => s + d.baseTriangles, 0);
+        const budget = trial % 4 === 1 ? base * (1 + rnd() * 3) : Infinity;
+        const loaded = dags.map((d) =>
+            Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < 0.7 ? 1 : 0)),
+        );
+        const isLoaded = trial % 4 === 2 ? (di, c) => loaded[di][c] === 1 : null;
+        const result = selectCut(dags, view, {
+            tauPx: Math.exp(rnd() * 4) * 0.3,
+            roi: trial % 2 ? roi : null,
+            cull: trial % 3 !== 0,
+            budget,
+            isLoaded,
+        });
+        result.cuts.forEach((cut, di) => {
+            const triangles = cut.drawn.flatMap((c) => clusterTriangles(objects[di].ext.clusters[c]));
+            const problem = closedProblem(triangles);
+            assert.equal(
+                problem,
+                null,
+                `trial ${trial}: ${objects[di].name}, ${cut.drawn.length} clusters: ${problem}`,
+            );
+            ++checked;
+        });
+    }
+    console.log(`${checked} cuts closed and consistently oriented`);
+});
 
 // ------------------------------------------------------------------------------------------------
 // geometry helpers
