@@ -457,3 +457,15 @@ export function cutStats(dag, drawn, view) {
     }
     return { triangles, maxError, maxErrorPx };
 }
+
+/// Sets the triangle count of cluster c (known once its chunk or the base is decoded) and keeps
+/// the per-group deltas and the totals in step.
+export function setClusterTriangles(dag, c, triangles) {
+    const old = dag.triangles[c];
+    if (old === triangles) return;
+    dag.triangles[c] = triangles;
+    dag.totalTriangles += triangles - old;
+    if (dag.consumer[c] >= 0) dag.delta[dag.consumer[c]] += triangles - old;
+    if (dag.producer[c] >= 0) dag.delta[dag.producer[c]] -= triangles - old;
+    if (dag.consumer[c] < 0) dag.baseTriangles += triangles - old;
+}

@@ -54,3 +54,38 @@ export const kGlb = {
     chunkJson: 0x4e4f534a, // 'JSON'
     chunkBin: 0x004e4942, // 'BIN\0'
 };
+
+// ------------------------------------------------------------------------------------------------
+// version 2 (schema/README.md)
+
+/// The extension object's version this code reads (version 1 files are not read).
+export const kVersion = 2;
+
+/// The DAG table in the `dag` buffer view: a 16-byte header, 32-byte group records, then the
+/// cluster-id lists (consumed then produced, per group), zero-padded to a multiple of 4.
+export const kDagTable = {
+    magic: 'SDAG',
+    headerBytes: 16,
+    recordBytes: 32,
+    // header fields
+    clusterCountOffset: 4,
+    groupCountOffset: 8,
+    idBytesOffset: 12,
+    idBytesAllowed: [2, 4],
+    // group record fields
+    centerOffset: 0, // float32[3]
+    radiusOffset: 12, // float32
+    chunkOffsetOffset: 16, // uint32
+    chunkLengthOffset: 20, // uint32
+    consumedCountOffset: 24, // uint16
+    producedCountOffset: 26, // uint16
+    levelOffset: 28, // uint16
+    reservedOffset: 30, // uint16, 0
+};
+
+/// Draco unique ids of a chunk's attributes (and the base primitive's glTF attribute names).
+export const kChunkAttributeIds = { position: 0, cluster: 1, slot: 2 };
+export const kClusterAttribute = '_CLUSTER';
+export const kSlotAttribute = '_SLOT';
+/// ... as GLTFLoader names them on a three.js geometry.
+export const kThreeClusterAttribute = '_cluster';

@@ -1,5 +1,5 @@
-// A three.js GLTFLoader plugin for STRATA_progressive_mesh (schema/README.md): any three.js app
-// can register it, independently of this folder's page.
+// A three.js GLTFLoader plugin for STRATA_progressive_mesh version 2 (schema/README.md): any
+// three.js app can register it, independently of this folder's page.
 //
 //   import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 //   import { StrataProgressivePlugin } from './strata-progressive.js';
@@ -10,44 +10,61 @@
 //   // every frame:
 //   strata.update(camera, renderer.domElement.height, 1 /* tau px */, 2e6 /* triangles */);
 //
-// GLTFLoader builds the base (the node's mesh, the root clusters) as usual; the plugin then
-//   * makes one controller per object node (strata.controllers; controller.update(camera,
-//     viewportHeightPx, tauPx, budget) selects, loads and swaps that object alone);
+// GLTFLoader builds the base (the node's mesh: one Draco primitive holding every root cluster,
+// with _CLUSTER) as usual; the plugin then
+//   * reads each object's DAG table (strata-decode.js) and splits the base into one mesh per root
+//     cluster (one controller per object: strata.controllers);
 //   * per update selects the cut (selection.js: screen-space error with the 3D Tiles formula,
 //     region of interest, frustum, triangle budget, chunks not loaded yet), shows and hides the
-//     cluster meshes, and sets each chunk's geomorph weight;
-//   * requests the missing chunks by priority, a few at a time, through
-//     parser.getDependency('mesh', i) (GLTFLoader's own KHR_draco_mesh_compression path);
-//   * fetches the bytes of a chunk by an HTTP Range request of its bufferView when the buffer is a
-//     separate file (.gltf with per-level .bin files) or when the model was opened with
-//     loadStrataModel() on a server that supports ranges (.glb streaming); a GLB given whole to
-//     GLTFLoader is already in memory and only decoded lazily.
+//     cluster meshes, sets each cluster's geomorph weight, and computes smooth shading normals over
+//     the drawn cut of every object whose cut changed (welded at shared positions across clusters
+//     and levels, the definition of strata's C++ shading normals);
+//   * requests the chunks of the wanted groups by priority, a few HTTP range requests at a time
+//     (neighbouring chunks in one request), cancels requests no longer wanted, decodes chunks with
+//     GLTFLoader's DRACOLoader (Web Workers), resolves their geomorph slots, and unloads chunks
+//     that left the cut when the loaded triangles exceed a memory budget.
 // Geomorphs: every cluster mesh gets a clone of its object's material whose vertex shader draws
-// position + (_COARSE_POSITION - position) * w, with one uniform w per cluster (the weight of the
-// group that consumes it: 1 at the refinement threshold, 0 from k * tau on, and a short time blend
-// after a refinement the threshold did not announce, e.g. a chunk arriving late). Root clusters use
-// the same program with w = 0 (no _COARSE_POSITION: it reads as 0, and p + (0 - p) * 0 == p
-// exactly), so shared vertices are transformed by identical code in every cluster.
-import { Frustum, LoaderUtils, Matrix4, Mesh, MeshBasicMaterial, Vector3, Sphere, Box3 } from 'three';
+// position + (_coarse_position - position) * w, with one uniform w per cluster: the weight of the
+// group that consumes it (1 at the refinement threshold, 0 from k * tau on), a short time blend
+// from 1 to 0 after a refinement the threshold did not announce (a chunk arriving late), and from
+// 0 to 1 before a coarsening the threshold did not announce (budget, frustum, a jump of the
+// camera): the consumed clusters stay drawn while they morph onto the produced ones. Root
+// clusters use the same program with _coarse_position = position, so shared vertices are
+// transformed by identical code in every cluster (invariant gl_Position).
+import {
+    Box3,
+    BufferAttribute,
+    BufferGeometry,
+    Frustum,
+    LoaderUtils,
+    Matrix4,
+    Mesh,
+    MeshBasicMaterial,
+    Sphere,
+    Vector3,
+} from 'three';
 import {
     buildDag,
     clusterError,
-    clusterTriangleCounts,
     cutStats,
     selectCut,
+    setClusterTriangles,
     sphereMeetsRoi,
-    validateExtension,
+    drawnClusters,
 } from './selection.js';
 import { ByteCoverage, coalesceRanges, glbLayout, meshBufferViews, progressiveNodes } from './gltf-file.js';
-import { kDraco, kExtension, kThreeAttributes } from './strata-format.js';
+import { kChunkAttributeIds, kDraco, kExtension, kThreeAttributes, kThreeClusterAttribute } from './strata-format.js';
+import { parseDagTable, readExtension, resolveSlots, shadingNormals, splitByCluster } from './strata-decode.js';
 
 const kDefaults = {
     concurrency: 4, // HTTP requests in flight
-    maxDecodes: 16, // chunks fetched or decoding at once (DRACOLoader's workers queue them)
+    maxDecodes: 8, // chunks fetched or decoding at once (DRACOLoader's workers queue them)
     morph: true, // geomorphs
     morphK: 2, // w = clamp((k - sse / tau) / (k - 1), 0, 1)
-    blendMs: 300, // time blend after a refinement the threshold did not announce
+    blendMs: 300, // time blend of a refinement or coarsening the threshold did not announce
     cull: true, // refine only groups whose sphere meets the view frustum
+    normals: true, // shading normals over the drawn cut (false: the base's normals, chunks flat)
+    memoryBudget: 4e6, // triangles of loaded chunks kept; beyond it, chunks off the cut are unloaded
     maxRangeGap: 16384, // merge chunk ranges of one buffer closer than this into one request
     maxRangeBytes: 1 << 20, // ... up to this length
     source: null, // set by loadStrataModel: { kind: 'glb-range', url, binOffset, length, prefix }
@@ -89,8 +106,9 @@ class RangeFetcher {
         const body = await response.arrayBuffer();
         this.count(url, response.status === 206 ? start : 0, body.byteLength);
         if (response.status === 206) {
-            if (body.byteLength !== end - start)
+            if (body.byteLength !== end - start) {
                 throw new Error(`${url}: range ${start}-${end} gave ${body.byteLength} bytes`);
+            }
             return body;
         }
         this.whole.set(url, Promise.resolve(body)); // no range support: we have it all now
@@ -117,24 +135,32 @@ class RangeFetcher {
 // ------------------------------------------------------------------------------------------------
 // geomorph material
 
-/// A clone of an object's material that morphs POSITION towards _COARSE_POSITION by the uniform
+/// A clone of an object's material that morphs position towards _coarse_position by the uniform
 /// strataMorph (per clone, i.e. per cluster). All clones share one program.
 function morphMaterial(base) {
     const material = base.clone();
     const uniform = { value: 0 };
     material.userData.strataMorph = uniform;
     material.userData.strataBaseColor = base.color?.clone();
+    const coarse = kThreeAttributes.coarsePosition;
     material.onBeforeCompile = (shader) => {
         shader.uniforms.strataMorph = uniform;
         shader.vertexShader =
-            'invariant gl_Position;\nattribute vec3 _coarse_position;\nuniform float strataMorph;\n' +
+            `invariant gl_Position;\nattribute vec3 ${coarse};\nuniform float strataMorph;\n` +
             shader.vertexShader.replace(
                 '#include <begin_vertex>',
-                'vec3 transformed = position + ( _coarse_position - position ) * strataMorph;',
+                `vec3 transformed = position + ( ${coarse} - position ) * strataMorph;`,
             );
     };
-    material.customProgramCacheKey = () => 'strata-morph-1';
+    material.customProgramCacheKey = () => 'strata-morph-2';
     return material;
+}
+
+/// The attribute values of a (possibly interleaved) three.js attribute, one component per item.
+function scalarValues(attribute) {
+    const out = new Uint32Array(attribute.count);
+    for (let i = 0; i < attribute.count; ++i) out[i] = attribute.getX(i);
+    return out;
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -142,80 +168,216 @@ function morphMaterial(base) {
 
 /// The controller of one object node: its DAG, its cluster meshes and their state.
 export class StrataObjectController {
-    constructor(plugin, nodeIndex, object, ext, json) {
+    /// table: parseDagTable's result; base: the GLTFLoader mesh of the node's mesh.
+    constructor(plugin, nodeIndex, object, table, base, json) {
         this.plugin = plugin;
         this.nodeIndex = nodeIndex;
         this.object = object;
         this.name = json.nodes[nodeIndex].name ?? `node ${nodeIndex}`;
         this.extras = json.nodes[nodeIndex].extras ?? {};
-        this.ext = ext;
-        this.dag = buildDag(ext, { clusterTriangles: clusterTriangleCounts(ext, json) });
-        const nc = this.dag.nc;
+        this.table = table;
+        this.chunksView = json.nodes[nodeIndex].extensions[kExtension].chunks;
+        this.material = base.material;
+        const nc = table.clusters.length;
         this.meshes = new Array(nc).fill(null); // cluster -> Mesh (null until loaded)
-        this.state = new Uint8Array(nc); // 0 not requested, 1 requested, 2 loaded, 3 failed
+        // vertex ids of the object: one per distinct position (exact), across clusters and levels
+        this.vertexIds = new Map();
+        this.vertexCount = 0;
+        this.positionsMm = new Float64Array(3 * 4096);
+        object.updateMatrix();
+        this.toMm = object.matrix.clone().setPosition(0, 0, 0); // local -> patient mm (linear part)
+        const roots = [];
+        for (let c = 0; c < nc; ++c) if (table.clusters[c].consumer === undefined) roots.push(c);
+        const rootTriangles = this.splitBase(base, roots);
+        this.dag = buildDag(table, {
+            clusterTriangles: table.clusters.map((_, c) => rootTriangles.get(c) ?? 0),
+        });
+        this.groupState = new Uint8Array(this.dag.ng); // 0 not loaded, 1 requested, 2 loaded, 3 failed
+        this.groupUsed = new Float64Array(this.dag.ng); // last time a group was drawn refined (ms)
+        this.chunkTriangles = 0; // triangles of the loaded chunks
         this.refined = new Uint8Array(this.dag.ng);
+        this.weight = new Float64Array(this.dag.ng); // the weight applied last to a group's consumed clusters
         this.refinedAt = new Float64Array(this.dag.ng).fill(-Infinity);
+        this.coarsenAt = new Float64Array(this.dag.ng).fill(-Infinity);
+        this.coarsenFrom = new Float64Array(this.dag.ng);
         this.drawn = [];
+        this.drawnKey = '';
         this.stats = { triangles: this.dag.baseTriangles, maxError: 0, maxErrorPx: 0 };
         this.opacity = 1;
         this.colorByLevel = false;
-        // the base: the GLTFLoader meshes of the node's mesh, one per primitive = root cluster
-        const nodeMesh = json.nodes[nodeIndex].mesh;
-        const byPrimitive = new Map();
-        object.traverse((o) => {
-            const a = plugin.parser.associations.get(o);
-            if (o.isMesh && a?.meshes === nodeMesh && a.primitives !== undefined) byPrimitive.set(a.primitives, o);
+        this.updateNormals(roots);
+    }
+
+    /// Splits the base mesh (GLTFLoader's, one primitive) into one mesh per root cluster (by its
+    /// _CLUSTER values: root k in increasing cluster id); hides GLTFLoader's mesh. Returns the
+    /// triangles per root cluster.
+    splitBase(base, roots) {
+        const geometry = base.geometry;
+        const clusterAttribute = geometry.getAttribute(kThreeClusterAttribute);
+        if (clusterAttribute === undefined) throw new Error(`${this.name}: the base mesh has no _CLUSTER`);
+        const position = geometry.getAttribute('position');
+        const positions = Float32Array.from({ length: 3 * position.count }, (_, i) =>
+            position.getComponent(Math.floor(i / 3), i % 3),
+        );
+        const index = geometry.index
+            ? Uint32Array.from(geometry.index.array)
+            : Uint32Array.from({ length: position.count }, (_, i) => i);
+        const { order, start } = splitByCluster(
+            index,
+            scalarValues(clusterAttribute),
+            roots.length,
+            `${this.name} base`,
+        );
+        const rootTriangles = new Map();
+        const shared = this.chunkGeometry(positions, positions, order);
+        roots.forEach((c, k) => {
+            rootTriangles.set(c, (start[k + 1] - start[k]) / 3);
+            this.adopt(c, this.clusterMesh(shared, start[k], start[k + 1], c));
         });
-        this.material = null;
-        // If the node object is itself the (single-primitive) mesh, hiding it would hide the chunk
-        // meshes added below it: let a child draw its geometry instead.
-        if (object.isMesh) {
-            const proxy = new Mesh(object.geometry, object.material);
-            proxy.name = `${object.name} base`;
-            object.add(proxy);
-            object.material = new MeshBasicMaterial({ visible: false });
-            for (const [p, m] of byPrimitive) if (m === object) byPrimitive.set(p, proxy);
+        // GLTFLoader's mesh stays in the scene graph (it may be the node itself) but draws nothing
+        base.material = new MeshBasicMaterial({ visible: false });
+        // root clusters that were never simplified have no sphere in the table: take their bounds
+        this.object.updateWorldMatrix(true, false);
+        const toScene = this.sceneMatrix();
+        roots.forEach((c) => {
+            if (this.table.clusters[c].sphere !== null) return;
+            const box = this.meshes[c].geometry.boundingBox.clone().applyMatrix4(toScene);
+            const sphere = box.getBoundingSphere(new Sphere());
+            this.table.clusters[c].sphere = [sphere.center.x, sphere.center.y, sphere.center.z, sphere.radius];
+        });
+        return rootTriangles;
+    }
+
+    /// The matrix from the object's local frame to the glTF scene frame (the spheres' frame).
+    sceneMatrix() {
+        const root = this.plugin.sceneRoot;
+        const toScene = new Matrix4();
+        if (root) toScene.copy(root.matrixWorld).invert();
+        return toScene.multiply(this.object.matrixWorld);
+    }
+
+    /// One geometry for a decoded chunk (or the base): positions, coarse positions, a normal
+    /// attribute (filled over the drawn cut), the index ordered by cluster, and per point its
+    /// object vertex id (userData.vertexOf).
+    chunkGeometry(positions, coarse, order) {
+        const geometry = new BufferGeometry();
+        geometry.setAttribute('position', new BufferAttribute(positions, 3));
+        geometry.setAttribute(kThreeAttributes.coarsePosition, new BufferAttribute(coarse, 3));
+        const normal = new BufferAttribute(new Float32Array(positions.length), 3);
+        geometry.setAttribute('normal', normal);
+        geometry.setIndex(new BufferAttribute(order, 1));
+        geometry.userData.vertexOf = this.vertexIdsOf(positions);
+        return geometry;
+    }
+
+    /// A mesh drawing indices [a, b) of a chunk geometry (cluster c): its own BufferGeometry that
+    /// shares the chunk's attributes and index, with a draw range and bounds that include the morph.
+    clusterMesh(chunk, a, b, c) {
+        const geometry = new BufferGeometry();
+        for (const [name, attribute] of Object.entries(chunk.attributes)) geometry.setAttribute(name, attribute);
+        geometry.setIndex(chunk.index);
+        geometry.setDrawRange(a, b - a);
+        geometry.userData = chunk.userData;
+        geometry.userData.range = [a, b];
+        const box = new Box3();
+        const p = chunk.getAttribute('position').array;
+        const q = chunk.getAttribute(kThreeAttributes.coarsePosition).array;
+        const index = chunk.index.array;
+        const v = new Vector3();
+        for (let i = a; i < b; ++i) {
+            const k = 3 * index[i];
+            box.expandByPoint(v.set(p[k], p[k + 1], p[k + 2]));
+            box.expandByPoint(v.set(q[k], q[k + 1], q[k + 2]));
         }
-        ext.clusters.forEach((cluster, c) => {
-            if (this.dag.consumer[c] >= 0) return;
-            const mesh = byPrimitive.get(cluster.primitive ?? 0);
-            if (mesh === undefined) throw new Error(`${this.name}: no mesh for root cluster ${c}`);
-            this.material ??= mesh.material;
-            this.adopt(c, mesh);
-            this.state[c] = 2;
-        });
+        geometry.boundingBox = box;
+        geometry.boundingSphere = box.getBoundingSphere(new Sphere());
+        const mesh = new Mesh(geometry, this.material);
+        mesh.name = `${this.name} cluster ${c}`;
+        mesh.userData.range = [a, b];
+        mesh.visible = false;
+        return mesh;
+    }
+
+    /// Object vertex ids of a chunk's points (new positions get new ids, with their patient-mm
+    /// coordinates for the normals).
+    vertexIdsOf(positions) {
+        const out = new Uint32Array(positions.length / 3);
+        const e = this.toMm.elements;
+        for (let p = 0; p < out.length; ++p) {
+            const x = positions[3 * p];
+            const y = positions[3 * p + 1];
+            const z = positions[3 * p + 2];
+            const key = `${x},${y},${z}`;
+            let id = this.vertexIds.get(key);
+            if (id === undefined) {
+                id = this.vertexCount++;
+                this.vertexIds.set(key, id);
+                if (3 * this.vertexCount > this.positionsMm.length) {
+                    const grown = new Float64Array(2 * this.positionsMm.length);
+                    grown.set(this.positionsMm);
+                    this.positionsMm = grown;
+                }
+                this.positionsMm[3 * id] = e[0] * x + e[4] * y + e[8] * z;
+                this.positionsMm[3 * id + 1] = e[1] * x + e[5] * y + e[9] * z;
+                this.positionsMm[3 * id + 2] = e[2] * x + e[6] * y + e[10] * z;
+            }
+            out[p] = id;
+        }
+        return out;
     }
 
     /// Makes mesh the drawable of cluster c: its own morph material, userData for picking.
     adopt(c, mesh) {
-        mesh.material = morphMaterial(this.material ?? mesh.material);
+        mesh.material = morphMaterial(this.material);
         mesh.userData.strataCluster = c;
         mesh.userData.strataObject = this;
         if (this.opacity < 1) this.applyOpacity(mesh.material);
         if (this.colorByLevel) this.applyLevelColor(c, mesh.material);
         this.meshes[c] = mesh;
+        this.object.add(mesh);
     }
 
-    /// Cluster c (not a root) arrived: its Mesh from GLTFLoader (geometry with position, normal,
-    /// _coarse_position).
-    attach(c, loaded) {
-        const geometry = loaded.geometry;
-        // bounds that contain the morph too (frustum culling of the mesh)
-        const box = new Box3().setFromBufferAttribute(geometry.getAttribute('position'));
-        const coarse = geometry.getAttribute(kThreeAttributes.coarsePosition);
-        if (coarse !== undefined) box.union(new Box3().setFromBufferAttribute(coarse));
-        geometry.boundingBox = box;
-        geometry.boundingSphere = box.getBoundingSphere(new Sphere());
-        const mesh = new Mesh(geometry, this.material ?? loaded.material);
-        mesh.name = `${this.name} cluster ${c}`;
-        mesh.visible = false;
-        this.adopt(c, mesh);
-        this.object.add(mesh);
-        this.state[c] = 2;
+    /// The chunk of group g arrived, decoded: { positions, cluster, slot, index } (typed arrays).
+    attachChunk(g, decoded) {
+        const group = this.dag.groups[g];
+        const where = `${this.name} group ${g}`;
+        const coarse = resolveSlots(decoded.positions, decoded.index, decoded.slot, where);
+        const { order, start } = splitByCluster(decoded.index, decoded.cluster, group.consumed.length, where);
+        const chunk = this.chunkGeometry(decoded.positions, coarse, order);
+        group.consumed.forEach((c, k) => {
+            const triangles = (start[k + 1] - start[k]) / 3;
+            setClusterTriangles(this.dag, c, triangles);
+            this.chunkTriangles += triangles;
+            this.adopt(c, this.clusterMesh(chunk, start[k], start[k + 1], c));
+        });
+        this.groupState[g] = 2;
+    }
+
+    /// Unloads the chunk of group g (its consumed clusters' meshes and GPU buffers).
+    evict(g) {
+        const group = this.dag.groups[g];
+        let chunk = null;
+        for (const c of group.consumed) {
+            const mesh = this.meshes[c];
+            if (mesh === null) continue;
+            this.object.remove(mesh);
+            mesh.material.dispose();
+            mesh.geometry.dispose();
+            chunk = mesh.geometry;
+            this.chunkTriangles -= this.dag.triangles[c];
+            this.meshes[c] = null;
+        }
+        if (chunk !== null) chunk.userData.vertexOf = null;
+        this.groupState[g] = 0;
     }
 
     isLoaded(c) {
-        return this.state[c] === 2;
+        return this.meshes[c] !== null;
+    }
+
+    /// Are some of group g's consumed clusters drawn (g refined, or blending out)?
+    isDrawnRefined(g) {
+        return this.dag.groups[g].consumed.some((c) => this.meshes[c]?.visible);
     }
 
     /// Selects, requests and shows this object alone (see StrataProgressivePlugin.update).
@@ -223,43 +385,135 @@ export class StrataObjectController {
         return this.plugin.update(camera, viewportHeightPx, tauPx, budget, { ...options, controllers: [this] });
     }
 
-    /// Shows the cut (refined groups, drawn clusters, weights) at time now (ms).
+    /// Shows the cut (refined groups, drawn clusters, weights) at time now (ms). Groups the cut
+    /// coarsens without the threshold having announced it stay drawn refined for blendMs while
+    /// their consumed clusters morph onto the produced ones (when their parents are drawn refined:
+    /// so the drawn set stays closed upward).
     apply(cut, now, morph) {
         const dag = this.dag;
-        for (let g = 0; g < dag.ng; ++g) {
+        const blend = this.plugin.options.blendMs;
+        const shown = Uint8Array.from(cut.refined);
+        for (let g = dag.ng - 1; g >= 0; --g) {
             if (cut.refined[g] && !this.refined[g]) {
                 // refined now: blend in over blendMs unless the threshold already starts at w ~ 1
-                this.refinedAt[g] = cut.weight[g] > 0.95 ? -Infinity : now;
+                this.refinedAt[g] = cut.weight[g] > 0.95 || !morph ? -Infinity : now;
+                this.coarsenAt[g] = -Infinity;
+            } else if (!cut.refined[g] && this.refined[g]) {
+                // coarsened now: blend out unless the consumed clusters already reached w ~ 1
+                const w = this.weight[g];
+                this.coarsenAt[g] = w > 0.95 || !morph || blend <= 0 ? -Infinity : now;
+                this.coarsenFrom[g] = w;
+            }
+            if (
+                !shown[g] &&
+                now - this.coarsenAt[g] < blend &&
+                dag.groups[g].consumed.every((c) => this.isLoaded(c)) &&
+                dag.parents[g].every((p) => shown[p])
+            ) {
+                shown[g] = 1;
+            } else if (!shown[g]) {
+                this.coarsenAt[g] = -Infinity;
             }
         }
         this.refined = cut.refined;
+        const drawn = shown.some((x, g) => x !== cut.refined[g]) ? drawnClusters(dag, shown) : cut.drawn;
         const drawnSet = new Uint8Array(dag.nc);
-        for (const c of cut.drawn) drawnSet[c] = 1;
-        const blend = this.plugin.options.blendMs;
+        for (const c of drawn) drawnSet[c] = 1;
         let changed = false;
+        for (let g = 0; g < dag.ng; ++g) {
+            let w = 0;
+            if (shown[g]) {
+                this.groupUsed[g] = now;
+                if (morph) {
+                    if (!cut.refined[g]) {
+                        const t = Math.min(1, (now - this.coarsenAt[g]) / blend);
+                        w = this.coarsenFrom[g] + (1 - this.coarsenFrom[g]) * t;
+                    } else {
+                        const t = blend > 0 ? 1 - (now - this.refinedAt[g]) / blend : 0;
+                        w = Math.max(0, cut.weight[g], Math.min(1, t));
+                    }
+                }
+            }
+            this.weight[g] = w;
+        }
         for (let c = 0; c < dag.nc; ++c) {
             const mesh = this.meshes[c];
             if (mesh === null) continue;
             const visible = drawnSet[c] === 1;
-            let w = 0;
             const g = dag.consumer[c];
-            if (morph && visible && g >= 0) {
-                const t = blend > 0 ? 1 - (now - this.refinedAt[g]) / blend : 0;
-                w = Math.max(0, cut.weight[g], Math.min(1, t));
-            }
+            const w = visible && g >= 0 ? this.weight[g] : 0;
             const uniform = mesh.material.userData.strataMorph;
             if (mesh.visible !== visible || (visible && uniform.value !== w)) changed = true;
             mesh.visible = visible;
             uniform.value = w;
         }
-        this.drawn = cut.drawn;
+        const key = drawn.join(',');
+        if (key !== this.drawnKey) {
+            this.drawnKey = key;
+            if (this.plugin.options.normals) this.updateNormals(drawn);
+            changed = true;
+        }
+        this.drawn = drawn;
         return changed;
+    }
+
+    /// Shading normals over the drawn clusters, welded by position across clusters and levels
+    /// (strata-decode.js shadingNormals, in patient mm), written to every drawn cluster's points
+    /// in the object's local frame.
+    updateNormals(drawn) {
+        let count = 0;
+        for (const c of drawn) {
+            const mesh = this.meshes[c];
+            if (mesh !== null) count += mesh.userData.range[1] - mesh.userData.range[0];
+        }
+        const triangles = new Uint32Array(count);
+        let n = 0;
+        for (const c of drawn) {
+            const mesh = this.meshes[c];
+            if (mesh === null) continue;
+            const [a, b] = mesh.userData.range;
+            const index = mesh.geometry.index.array;
+            const vertexOf = mesh.geometry.userData.vertexOf;
+            for (let i = a; i < b; ++i) triangles[n++] = vertexOf[index[i]];
+        }
+        const normalsMm = shadingNormals(this.positionsMm, triangles, this.vertexCount);
+        // mm -> local: n_local ~ M^T n_mm (three.js then applies the normal matrix, inverse transpose of M)
+        const e = this.toMm.elements;
+        const touched = new Set();
+        for (const c of drawn) {
+            const mesh = this.meshes[c];
+            if (mesh === null) continue;
+            const [a, b] = mesh.userData.range;
+            const index = mesh.geometry.index.array;
+            const vertexOf = mesh.geometry.userData.vertexOf;
+            const normal = mesh.geometry.getAttribute('normal');
+            const out = normal.array;
+            for (let i = a; i < b; ++i) {
+                const p = index[i];
+                const v = vertexOf[p];
+                const x = normalsMm[3 * v];
+                const y = normalsMm[3 * v + 1];
+                const z = normalsMm[3 * v + 2];
+                const lx = e[0] * x + e[1] * y + e[2] * z;
+                const ly = e[4] * x + e[5] * y + e[6] * z;
+                const lz = e[8] * x + e[9] * y + e[10] * z;
+                const l = Math.hypot(lx, ly, lz) || 1;
+                out[3 * p] = lx / l;
+                out[3 * p + 1] = ly / l;
+                out[3 * p + 2] = lz / l;
+            }
+            touched.add(normal);
+        }
+        for (const normal of touched) normal.needsUpdate = true;
     }
 
     /// True while some drawn cluster is morphing by time (an app rendering on demand keeps going).
     blending(now) {
         const blend = this.plugin.options.blendMs;
-        return this.refinedAt.some((t) => now - t < blend);
+        for (let g = 0; g < this.dag.ng; ++g) {
+            if (now - this.refinedAt[g] < blend || now - this.coarsenAt[g] < blend) return true;
+        }
+        return false;
     }
 
     setOpacity(opacity) {
@@ -288,10 +542,9 @@ export class StrataObjectController {
             material.color.copy(material.userData.strataBaseColor);
             return;
         }
-        this.maxLevel ??= this.ext.clusters.reduce((m, k) => Math.max(m, k.level), 1);
-        const levels = this.maxLevel;
-        const level = this.ext.clusters[c].level;
-        material.color.setHSL(0.66 * (1 - level / levels), 0.8, 0.5 + 0.1 * (((c * 7) % 3) - 1));
+        this.maxLevel ??= this.table.clusters.reduce((m, k) => Math.max(m, k.level), 1);
+        const level = this.table.clusters[c].level;
+        material.color.setHSL(0.66 * (1 - level / this.maxLevel), 0.8, 0.5 + 0.1 * (((c * 7) % 3) - 1));
     }
 }
 
@@ -315,6 +568,8 @@ export class StrataProgressivePlugin {
             chunksTotal: 0,
             chunkBytesLoaded: 0,
             failures: 0,
+            cancelled: 0,
+            evicted: 0,
         };
         this.fetcher = new RangeFetcher(
             this.options.fetch ?? globalThis.fetch.bind(globalThis),
@@ -322,10 +577,10 @@ export class StrataProgressivePlugin {
             this.coverage,
         );
         this.controllers = [];
-        this.chunkViews = new Map(); // bufferView index -> { nodeIndex, cluster } of every chunk
         this.controllerOf = new Map(); // node index -> controller
         this.viewBytes = new Map(); // bufferView index -> ArrayBuffer fetched ahead (ranges)
-        this.queue = []; // wanted chunks of the last update, best first
+        this.queue = []; // wanted chunks of the last update, best first: { controller, group, priority }
+        this.batches = new Set(); // fetches in flight: { items, abort, fetched }
         this.requests = 0; // HTTP requests in flight
         this.decoding = 0; // chunks requested and not yet attached
         this.changed = false; // something to draw differently since the last update
@@ -338,24 +593,17 @@ export class StrataProgressivePlugin {
 
     beforeRoot() {
         const json = this.parser.json;
-        const source = this.options.source;
-        for (const { nodeIndex, ext } of progressiveNodes(json, kExtension)) {
-            for (const [c, cluster] of (ext.clusters ?? []).entries()) {
-                const view =
-                    json.meshes?.[cluster.mesh]?.primitives?.[cluster.primitive ?? 0]?.extensions?.[kDraco]?.bufferView;
-                if (cluster.consumer !== undefined && view !== undefined)
-                    this.chunkViews.set(view, { nodeIndex, cluster: c });
-            }
-        }
         if (this.stats.bytesTotal === 0) {
             this.stats.bytesTotal = (json.buffers ?? []).reduce((s, b) => s + (b.byteLength ?? 0), 0);
         }
-        if (source?.kind !== 'glb-range') return null;
-        // GLB streaming: fetch every bufferView of buffer 0 the scene needs now (all but the
-        // chunks), in few coalesced ranges.
+        if (this.options.source?.kind !== 'glb-range') return null;
+        // GLB streaming: fetch every bufferView of buffer 0 the first frame needs (the base
+        // meshes and the DAG tables), in few coalesced ranges.
         const views = new Set();
         for (const node of json.nodes ?? []) {
             if (node.mesh !== undefined) meshBufferViews(json, node.mesh).forEach((v) => views.add(v));
+            const dag = node.extensions?.[kExtension]?.dag;
+            if (Number.isInteger(dag) && json.bufferViews?.[dag] !== undefined) views.add(dag);
         }
         const ranges = coalesceRanges(
             json,
@@ -365,7 +613,6 @@ export class StrataProgressivePlugin {
         return Promise.all(
             ranges.map(async (range) => {
                 const bytes = await this.glbRange(range.start, range.end);
-                this.stash(0, range.start, bytes);
                 for (const v of range.views) {
                     const def = json.bufferViews[v];
                     const start = (def.byteOffset ?? 0) - range.start;
@@ -375,28 +622,13 @@ export class StrataProgressivePlugin {
         );
     }
 
-    /// Keeps the bytes of every chunk bufferView that lies inside a fetched range of a buffer (the
-    /// gaps of coalesced ranges), so that it is not fetched again. bytes: ArrayBuffer of
-    /// [start, start + bytes.byteLength) of buffer.
-    stash(buffer, start, bytes) {
-        const end = start + bytes.byteLength;
-        for (const [view, { nodeIndex, cluster }] of this.chunkViews) {
-            const def = this.parser.json.bufferViews[view];
-            const a = def.byteOffset ?? 0;
-            if (def.buffer !== buffer || a < start || a + def.byteLength > end || this.viewBytes.has(view)) continue;
-            const controller = this.controllerOf.get(nodeIndex);
-            if (controller !== undefined && controller.state[cluster] !== 0) continue;
-            this.viewBytes.set(view, bytes.slice(a - start, a - start + def.byteLength));
-        }
-    }
-
     /// bytes [start, end) of the GLB's BIN data (glb-range source), using the prefix already read.
-    glbRange(start, end) {
+    glbRange(start, end, signal = undefined) {
         const { url, binOffset, prefix } = this.options.source;
         const a = binOffset + start;
         const b = binOffset + end;
         if (prefix && b <= prefix.byteLength) return Promise.resolve(prefix.slice(a, b));
-        return this.fetcher.range(url, a, b);
+        return this.fetcher.range(url, a, b, signal);
     }
 
     loadBufferView(index) {
@@ -415,33 +647,46 @@ export class StrataProgressivePlugin {
         const uri = json.buffers[def.buffer]?.uri;
         if (uri === undefined || uri.startsWith('data:')) return null; // in memory: GLTFLoader's way
         const url = LoaderUtils.resolveURL(uri, this.parser.options.path);
-        if (this.chunkViews.has(index)) return this.fetcher.range(url, start, end);
-        return this.fetcher.all(url).then((buffer) => buffer.slice(start, end));
+        return this.fetcher.range(url, start, end);
     }
 
-    afterRoot(result) {
+    async afterRoot(result) {
         const json = this.parser.json;
         this.sceneRoot = result.scene;
+        result.scene.updateMatrixWorld(true);
         const objects = new Map();
         result.scene.traverse((o) => {
             const node = this.parser.associations.get(o)?.nodes;
             if (node !== undefined && !objects.has(node)) objects.set(node, o);
         });
-        for (const { nodeIndex, ext } of progressiveNodes(json, kExtension)) {
+        for (const { nodeIndex, node, ext } of progressiveNodes(json, kExtension)) {
             const object = objects.get(nodeIndex);
-            const problems = validateExtension(ext);
-            if (object === undefined || problems.length > 0) {
-                // fall back to the base mesh (schema/README.md, Validation)
-                console.warn(
-                    `${kExtension}: node ${nodeIndex} uses its base mesh only: ${problems[0] ?? 'not in the scene'}`,
+            try {
+                if (object === undefined) throw new Error('not in the scene');
+                const info = readExtension(ext, json, `node ${nodeIndex} (${node.name})/extensions/${kExtension}`);
+                const bytes = new Uint8Array(await this.parser.getDependency('bufferView', info.dag));
+                const table = parseDagTable(
+                    bytes,
+                    info,
+                    json.bufferViews[info.chunks].byteLength,
+                    `node ${nodeIndex} DAG table`,
                 );
-                continue;
+                let base = null;
+                object.traverse((o) => {
+                    const a = this.parser.associations.get(o);
+                    if (o.isMesh && a?.meshes === node.mesh && base === null) base = o;
+                });
+                if (base === null) throw new Error('no base mesh');
+                const controller = new StrataObjectController(this, nodeIndex, object, table, base, json);
+                object.userData.strata = controller;
+                this.controllers.push(controller);
+                this.controllerOf.set(nodeIndex, controller);
+                this.stats.chunksTotal += controller.dag.ng;
+            } catch (error) {
+                // fall back to the base mesh (schema/README.md, Validation)
+                this.errors.push(`node ${nodeIndex}: ${error.message ?? error}`);
+                console.warn(`${kExtension}: node ${nodeIndex} uses its base mesh only: ${error.message ?? error}`);
             }
-            const controller = new StrataObjectController(this, nodeIndex, object, ext, json);
-            object.userData.strata = controller;
-            this.controllers.push(controller);
-            this.controllerOf.set(nodeIndex, controller);
-            this.stats.chunksTotal += ext.clusters.filter((c) => c.consumer !== undefined).length;
         }
         result.userData.strata = this;
         return null;
@@ -482,10 +727,11 @@ export class StrataProgressivePlugin {
     }
 
     /// Selects the cut of every visible object together (one triangle budget for all), shows it,
-    /// and requests missing chunks. options: { roi: { center: [x, y, z] scene frame, radius,
-    /// factor } | null, morph, cull, controllers (default: all) }. Returns a summary (also in
-    /// this.last): { triangles, maxErrorPx, maxError (m), budgetLimited, wanted, roiTriangles,
-    /// changed (the picture differs from the last update's: an app rendering on demand renders) }.
+    /// requests missing chunks, cancels requests no longer wanted and unloads chunks beyond the
+    /// memory budget. options: { roi: { center: [x, y, z] scene frame, radius, factor } | null,
+    /// morph, cull, controllers (default: all) }. Returns a summary (also in this.last):
+    /// { triangles, maxErrorPx, maxError (m), budgetLimited, wanted, roiTriangles, changed (the
+    /// picture differs from the last update's: an app rendering on demand renders) }.
     update(camera, viewportHeightPx, tauPx = 1, budget = Infinity, options = {}) {
         const now = performance.now();
         const controllers = (options.controllers ?? this.controllers).filter(
@@ -518,15 +764,26 @@ export class StrataProgressivePlugin {
             maxErrorPx = Math.max(maxErrorPx, stats.maxErrorPx);
             if (options.roi) {
                 for (const c of result.cuts[di].drawn) {
-                    if (sphereMeetsRoi(controller.dag.clusterSphere, 4 * c, options.roi))
+                    if (sphereMeetsRoi(controller.dag.clusterSphere, 4 * c, options.roi)) {
                         roiTriangles += controller.dag.triangles[c];
+                    }
                 }
             }
         });
-        this.queue = result.wanted
-            .map((w) => ({ controller: controllers[w.dag], cluster: w.cluster, priority: w.priority }))
-            .filter((w) => w.controller.state[w.cluster] === 0);
+        // wanted groups (a cluster is wanted when its consumer's chunk is missing), best first
+        const seen = new Set();
+        this.queue = [];
+        for (const w of result.wanted) {
+            const controller = controllers[w.dag];
+            const group = controller.dag.consumer[w.cluster];
+            const key = `${controller.nodeIndex}/${group}`;
+            if (seen.has(key)) continue;
+            seen.add(key);
+            if (controller.groupState[group] === 0) this.queue.push({ controller, group, priority: w.priority });
+        }
+        this.cancelObsolete(seen);
         this.pump();
+        this.evictBeyondBudget();
         this.last = {
             triangles: result.triangles,
             maxError,
@@ -548,57 +805,61 @@ export class StrataProgressivePlugin {
 
     // --- loading ---------------------------------------------------------------------------------
 
+    /// Where the chunk of group g of a controller lies: { buffer, start, end } in its buffer.
+    chunkRange(controller, g) {
+        const def = this.parser.json.bufferViews[controller.chunksView];
+        const group = controller.dag.groups[g];
+        const start = (def.byteOffset ?? 0) + group.chunkOffset;
+        return { buffer: def.buffer, start, end: start + group.chunkLength };
+    }
+
+    /// Is buffer b fetched by ranges (a separate file, or a streamed GLB)?
+    isRanged(b) {
+        if (this.options.source?.kind === 'glb-range' && b === 0) return true;
+        const uri = this.parser.json.buffers[b]?.uri;
+        return uri !== undefined && !uri.startsWith('data:');
+    }
+
     /// Starts loading the best wanted chunks: at most `concurrency` HTTP requests in flight and
-    /// at most `maxDecodes` chunks fetched but not yet decoded and attached (a request's slot is
-    /// free again as soon as its bytes arrived). Chunks in separate buffer files (or a streamed
-    /// GLB) are fetched in coalesced Range requests (neighbouring bufferViews of one buffer, best
-    /// chunk first).
+    /// at most `maxDecodes` chunks fetched but not yet decoded and attached. Wanted chunks of one
+    /// buffer close to the best one (within maxRangeGap) come in the same request.
     pump() {
-        const json = this.parser.json;
-        const viewOf = (w) =>
-            json.meshes[w.controller.ext.clusters[w.cluster].mesh].primitives[0].extensions[kDraco].bufferView;
         while (this.queue.length > 0 && this.decoding < this.options.maxDecodes) {
             const first = this.queue[0];
-            if (first.controller.state[first.cluster] !== 0) {
+            if (first.controller.groupState[first.group] !== 0) {
                 this.queue.shift();
                 continue;
             }
-            const ranged = !this.viewBytes.has(viewOf(first)) && this.isRanged(viewOf(first));
+            const range = this.chunkRange(first.controller, first.group);
+            const ranged = this.isRanged(range.buffer);
             if (ranged && this.requests >= this.options.concurrency) break;
             this.queue.shift();
-            const batch = [first];
+            const items = [{ ...first, range }];
+            let lo = range.start;
+            let hi = range.end;
             if (ranged) {
-                // add wanted chunks of the same buffer close to the first one
-                const buffer = json.bufferViews[viewOf(first)].buffer;
-                let lo = json.bufferViews[viewOf(first)].byteOffset ?? 0;
-                let hi = lo + json.bufferViews[viewOf(first)].byteLength;
-                for (
-                    let i = 0;
-                    i < this.queue.length && i < 256 && this.decoding + batch.length < this.options.maxDecodes;
-                    ++i
-                ) {
+                for (let i = 0; i < this.queue.length && i < 256; ++i) {
+                    if (this.decoding + items.length >= this.options.maxDecodes) break;
                     const w = this.queue[i];
-                    if (w.controller.state[w.cluster] !== 0 || this.viewBytes.has(viewOf(w))) continue;
-                    const def = json.bufferViews[viewOf(w)];
-                    const a = def.byteOffset ?? 0;
-                    const b = a + def.byteLength;
+                    if (w.controller.groupState[w.group] !== 0) continue;
+                    const r = this.chunkRange(w.controller, w.group);
                     if (
-                        def.buffer !== buffer ||
-                        a - hi > this.options.maxRangeGap ||
-                        lo - b > this.options.maxRangeGap ||
-                        Math.max(hi, b) - Math.min(lo, a) > this.options.maxRangeBytes
-                    )
+                        r.buffer !== range.buffer ||
+                        r.start - hi > this.options.maxRangeGap ||
+                        lo - r.end > this.options.maxRangeGap ||
+                        Math.max(hi, r.end) - Math.min(lo, r.start) > this.options.maxRangeBytes
+                    ) {
                         continue;
-                    lo = Math.min(lo, a);
-                    hi = Math.max(hi, b);
-                    batch.push(w);
+                    }
+                    lo = Math.min(lo, r.start);
+                    hi = Math.max(hi, r.end);
+                    items.push({ ...w, range: r });
                     this.queue.splice(i--, 1);
                 }
             }
-            for (const w of batch) w.controller.state[w.cluster] = 1;
-            this.decoding += batch.length;
-            if (ranged) ++this.requests;
-            this.loadBatch(batch, ranged ? viewOf : null);
+            for (const w of items) w.controller.groupState[w.group] = 1;
+            this.decoding += items.length;
+            this.loadBatch({ items, buffer: range.buffer, start: lo, end: hi, ranged });
         }
     }
 
@@ -607,70 +868,135 @@ export class StrataProgressivePlugin {
         return this.decoding;
     }
 
-    isRanged(view) {
-        const def = this.parser.json.bufferViews[view];
-        if (this.options.source?.kind === 'glb-range' && def.buffer === 0) return true;
-        const uri = this.parser.json.buffers[def.buffer]?.uri;
-        return uri !== undefined && !uri.startsWith('data:');
+    /// Aborts fetches none of whose chunks is wanted any more (their groups can be asked again).
+    cancelObsolete(wanted) {
+        for (const batch of this.batches) {
+            if (batch.fetched || batch.controller === null) continue;
+            if (batch.items.some((w) => wanted.has(`${w.controller.nodeIndex}/${w.group}`))) continue;
+            batch.controller.abort();
+        }
     }
 
-    async loadBatch(batch, viewOf) {
-        const json = this.parser.json;
-        let pending = batch.length;
-        const done = () => {
-            --this.decoding;
-            --pending;
-            this.pump();
-        };
-        try {
-            if (viewOf !== null) {
-                const views = batch.map(viewOf);
-                const [range] = coalesceRanges(json, views, Infinity);
-                let bytes;
-                if (this.options.source?.kind === 'glb-range' && range.buffer === 0) {
-                    bytes = await this.glbRange(range.start, range.end).finally(() => --this.requests);
-                } else {
-                    const url = LoaderUtils.resolveURL(json.buffers[range.buffer].uri, this.parser.options.path);
-                    bytes = await this.fetcher.range(url, range.start, range.end).finally(() => --this.requests);
+    /// Unloads loaded chunks whose groups are not drawn refined, least recently used first, while
+    /// the loaded chunk triangles exceed the memory budget.
+    evictBeyondBudget() {
+        let resident = this.controllers.reduce((s, c) => s + c.chunkTriangles, 0);
+        const budget = this.options.memoryBudget;
+        if (!(resident > budget)) return;
+        const candidates = [];
+        for (const controller of this.controllers) {
+            for (let g = 0; g < controller.dag.ng; ++g) {
+                if (controller.groupState[g] === 2 && controller.weight[g] === 0 && !controller.isDrawnRefined(g)) {
+                    candidates.push({ controller, g, used: controller.groupUsed[g] });
                 }
-                for (const v of views) {
-                    const def = json.bufferViews[v];
-                    const start = (def.byteOffset ?? 0) - range.start;
-                    this.viewBytes.set(v, bytes.slice(start, start + def.byteLength));
-                    this.stats.chunkBytesLoaded += def.byteLength;
-                }
-                this.stash(range.buffer, range.start, bytes);
-                this.pump(); // the request slot is free
             }
-            await Promise.all(
-                batch.map(async ({ controller, cluster }) => {
-                    try {
-                        const mesh = await this.parser.getDependency('mesh', controller.ext.clusters[cluster].mesh);
-                        if (!mesh?.isMesh) throw new Error('not one mesh');
-                        controller.attach(cluster, mesh);
-                        ++this.stats.chunksLoaded;
-                        this.options.onChange?.(controller, cluster);
-                    } catch (error) {
-                        controller.state[cluster] = 3;
-                        ++this.stats.failures;
-                        this.errors.push(`${controller.name} cluster ${cluster}: ${error.message ?? error}`);
-                        console.error(
-                            `${kExtension}: ${controller.name} cluster ${cluster}: ${error.message ?? error}`,
-                        );
-                    } finally {
-                        done();
-                    }
-                }),
-            );
-        } catch (error) {
-            // the fetch failed: nothing of the batch was decoded
-            for (const { controller, cluster } of batch)
-                if (controller.state[cluster] === 1) controller.state[cluster] = 3;
-            this.stats.failures += batch.length;
-            this.errors.push(`${error.message ?? error}`);
-            console.error(`${kExtension}: ${error.message ?? error}`);
-            while (pending > 0) done();
         }
+        candidates.sort((a, b) => a.used - b.used);
+        for (const { controller, g } of candidates) {
+            if (resident <= 0.9 * budget) break;
+            const before = controller.chunkTriangles;
+            controller.evict(g);
+            resident -= before - controller.chunkTriangles;
+            ++this.stats.evicted;
+            --this.stats.chunksLoaded;
+        }
+    }
+
+    async loadBatch(batch) {
+        const json = this.parser.json;
+        const abort = typeof AbortController === 'function' ? new AbortController() : null;
+        const entry = { items: batch.items, controller: abort, fetched: false };
+        this.batches.add(entry);
+        if (batch.ranged) ++this.requests;
+        let bytes;
+        try {
+            if (batch.ranged) {
+                try {
+                    if (this.options.source?.kind === 'glb-range' && batch.buffer === 0) {
+                        bytes = await this.glbRange(batch.start, batch.end, abort?.signal);
+                    } else {
+                        const url = LoaderUtils.resolveURL(json.buffers[batch.buffer].uri, this.parser.options.path);
+                        bytes = await this.fetcher.range(url, batch.start, batch.end, abort?.signal);
+                    }
+                } finally {
+                    --this.requests;
+                }
+            } else {
+                const whole = await this.parser.getDependency('buffer', batch.buffer);
+                bytes = whole.slice(batch.start, batch.end);
+            }
+        } catch (error) {
+            entry.fetched = true;
+            this.batches.delete(entry);
+            for (const { controller, group } of batch.items) {
+                if (controller.groupState[group] === 1) controller.groupState[group] = abort?.signal.aborted ? 0 : 3;
+            }
+            this.decoding -= batch.items.length;
+            if (abort?.signal.aborted) {
+                this.stats.cancelled += batch.items.length;
+            } else {
+                this.stats.failures += batch.items.length;
+                this.errors.push(`${error.message ?? error}`);
+                console.error(`${kExtension}: ${error.message ?? error}`);
+            }
+            this.pump();
+            return;
+        }
+        entry.fetched = true;
+        this.batches.delete(entry);
+        this.pump(); // the request slot is free
+        await Promise.all(
+            batch.items.map(async ({ controller, group, range }) => {
+                try {
+                    const chunk = bytes.slice(range.start - batch.start, range.end - batch.start);
+                    this.stats.chunkBytesLoaded += chunk.byteLength;
+                    const decoded = await this.decodeChunk(chunk);
+                    if (controller.groupState[group] !== 1) return; // unloaded meanwhile
+                    controller.attachChunk(group, decoded);
+                    ++this.stats.chunksLoaded;
+                    this.changed = true;
+                    this.options.onChange?.(controller, group);
+                } catch (error) {
+                    controller.groupState[group] = 3;
+                    ++this.stats.failures;
+                    this.errors.push(`${controller.name} group ${group}: ${error.message ?? error}`);
+                    console.error(`${kExtension}: ${controller.name} group ${group}: ${error.message ?? error}`);
+                } finally {
+                    --this.decoding;
+                    this.pump();
+                }
+            }),
+        );
+    }
+
+    /// Decodes a chunk (ArrayBuffer) with GLTFLoader's DRACOLoader: { positions, cluster, slot,
+    /// index } as typed arrays.
+    async decodeChunk(buffer) {
+        const dracoLoader = this.parser.extensions?.[kDraco]?.dracoLoader;
+        if (!dracoLoader) throw new Error('no DRACOLoader (GLTFLoader.setDRACOLoader)');
+        const geometry = await dracoLoader.decodeGeometry(buffer, {
+            attributeIDs: {
+                position: kChunkAttributeIds.position,
+                _cluster: kChunkAttributeIds.cluster,
+                _slot: kChunkAttributeIds.slot,
+            },
+            attributeTypes: { position: 'Float32Array', _cluster: 'Uint32Array', _slot: 'Uint32Array' },
+            useUniqueIDs: true,
+            vertexColorSpace: 'srgb-linear',
+        });
+        const position = geometry.getAttribute('position');
+        const cluster = geometry.getAttribute('_cluster');
+        const slot = geometry.getAttribute('_slot');
+        if (!position || !cluster || !slot || !geometry.index)
+            throw new Error('chunk without POSITION, _CLUSTER, _SLOT or triangles');
+        if (position.count > geometry.index.count)
+            throw new Error(`${position.count} points for ${geometry.index.count / 3} triangles`);
+        return {
+            positions: position.array,
+            cluster: scalarValues(cluster),
+            slot: scalarValues(slot),
+            index: geometry.index.array,
+        };
     }
 
     // --- helpers for apps ------------------------------------------------------------------------

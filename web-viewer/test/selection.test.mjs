@@ -23,7 +23,8 @@ import { readFileSync } from 'node:fs';
 import { dirname, resolve } from 'node:path';
 import { buildDag, clusterTriangleCounts, drawnClusters, selectCut, cutStats } from '../selection.js';
 import { parseGlb, progressiveNodes } from '../gltf-file.js';
-import { kDraco } from '../strata-format.js';
+import { kClusterAttribute, kDraco } from '../strata-format.js';
+import { decodeDraco, parseDagTable, readExtension, splitByCluster } from '../strata-decode.js';
 import { testModel } from './test-model.mjs';
 
 const kModel = testModel();
@@ -32,7 +33,9 @@ const kTrials = Number(process.env.STRATA_VIEWER_TRIALS ?? 300);
 // ------------------------------------------------------------------------------------------------
 // the model
 
-function readModel(file) {
+/// Reads a model (format version 2) and decodes all of it with draco3d: per object the DAG table
+/// (as buildDag reads it), and per cluster its triangles as position keys (exact float values).
+async function readModel(file) {
     const bytes = new Uint8Array(readFileSync(file));
     let json;
     const buffers = [];
@@ -47,18 +50,91 @@ function readModel(file) {
         if (b.uri !== undefined)
             buffers[i] = new Uint8Array(readFileSync(resolve(dirname(file), decodeURIComponent(b.uri))));
     });
-    const objects = progressiveNodes(json).map(({ nodeIndex, node, ext }) => ({
-        nodeIndex,
-        name: node.name,
-        ext,
-        dag: buildDag(ext, { clusterTriangles: clusterTriangleCounts(ext, json) }),
-    }));
+    const draco3d = (await import('draco3d')).default;
+    const draco = await draco3d.createDecoderModule({});
+    const world = nodeWorldMatrices(json);
+    const objects = progressiveNodes(json).map(({ nodeIndex, node, ext }) => {
+        const info = readExtension(ext, json);
+        const table = parseDagTable(
+            bufferViewBytes(json, buffers, info.dag),
+            info,
+            json.bufferViews[info.chunks].byteLength,
+        );
+        const triangles = new Array(table.clusters.length); // cluster -> [[keyA, keyB, keyC], ...]
+        const add = (clusters, decoded) => {
+            const keys = [];
+            const p = decoded.positions;
+            for (let i = 0; i < p.length / 3; ++i) keys.push(`${p[3 * i] + 0},${p[3 * i + 1] + 0},${p[3 * i + 2] + 0}`);
+            const { order, start } = splitByCluster(decoded.index, decoded.cluster, clusters.length);
+            clusters.forEach((c, k) => {
+                triangles[c] = [];
+                for (let i = start[k]; i < start[k + 1]; i += 3) {
+                    triangles[c].push([keys[order[i]], keys[order[i + 1]], keys[order[i + 2]]]);
+                }
+            });
+            return decoded;
+        };
+        const roots = [];
+        table.clusters.forEach((c, ci) => c.consumer === undefined && roots.push(ci));
+        const primitive = json.meshes[node.mesh].primitives[0];
+        const baseDraco = primitive.extensions[kDraco];
+        const base = add(
+            roots,
+            decodeDraco(draco, bufferViewBytes(json, buffers, baseDraco.bufferView), {
+                position: baseDraco.attributes.POSITION,
+                cluster: baseDraco.attributes[kClusterAttribute],
+            }),
+        );
+        const chunks = bufferViewBytes(json, buffers, info.chunks);
+        table.groups.forEach((g) =>
+            add(g.consumed, decodeDraco(draco, chunks.subarray(g.chunkOffset, g.chunkOffset + g.chunkLength))),
+        );
+        // roots that were never simplified: a sphere around their vertices (scene frame)
+        for (const c of roots) {
+            if (table.clusters[c].sphere !== null) continue;
+            const m = world[nodeIndex];
+            const points = [];
+            for (let i = 0; i < base.positions.length; i += 3) {
+                const [x, y, z] = [base.positions[i], base.positions[i + 1], base.positions[i + 2]];
+                points.push([0, 1, 2].map((r) => m[r] * x + m[4 + r] * y + m[8 + r] * z + m[12 + r]));
+            }
+            const centre = [0, 1, 2].map((k) => points.reduce((s, q) => s + q[k], 0) / points.length);
+            const radius = Math.max(
+                ...points.map((q) => Math.hypot(q[0] - centre[0], q[1] - centre[1], q[2] - centre[2])),
+            );
+            table.clusters[c].sphere = [...centre, radius * (1 + 1e-6)];
+        }
+        return {
+            nodeIndex,
+            name: node.name,
+            ext: table,
+            triangles,
+            dag: buildDag(table, { clusterTriangles: triangles.map((t) => t.length) }),
+        };
+    });
     return { json, buffers, objects };
 }
 
-let model = null;
+/// World matrices (column-major arrays) of the nodes (strata writes `matrix` on every node).
+function nodeWorldMatrices(json) {
+    const nodes = json.nodes ?? [];
+    const parent = new Array(nodes.length).fill(-1);
+    nodes.forEach((n, i) => (n.children ?? []).forEach((c) => (parent[c] = i)));
+    const multiply = (a, b) =>
+        Array.from({ length: 16 }, (_, k) => {
+            const col = Math.floor(k / 4);
+            const row = k % 4;
+            let sum = 0;
+            for (let i = 0; i < 4; ++i) sum += a[4 * i + row] * b[4 * col + i];
+            return sum;
+        });
+    const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+    const world = (i) => (i < 0 ? identity : multiply(world(parent[i]), nodes[i].matrix ?? identity));
+    return nodes.map((_, i) => world(i));
+}
+
+const model = await readModel(kModel);
 function getModel() {
-    model ??= readModel(kModel);
     return model;
 }
 
@@ -448,39 +524,7 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
 });
 
 test('drawn clusters of random cuts form closed, consistently oriented surfaces (decoded with draco3d)', async () => {
-    const { json, buffers, objects } = getModel();
-    const draco3d = (await import('draco3d')).default;
-    const draco = await draco3d.createDecoderModule({});
-    // positions of every cluster, as keys of exact float values
-    const keysOf = new Map(); // mesh/primitive -> { keys: string[], index }
-    const clusterTriangles = (cluster) => {
-        const id = `${cluster.mesh}/${cluster.primitive ?? 0}`;
-        if (!keysOf.has(id)) {
-            const primitive = json.meshes[cluster.mesh].primitives[cluster.primitive ?? 0];
-            const ext = primitive.extensions?.[kDraco];
-            let positions;
-            let index;
-            if (ext !== undefined) {
-                ({ positions, index } = dracoDecode(
-                    draco,
-                    bufferViewBytes(json, buffers, ext.bufferView),
-                    ext.attributes.POSITION,
-                ));
-            } else {
-                positions = readAccessor(json, buffers, primitive.attributes.POSITION);
-                index = readAccessor(json, buffers, primitive.indices);
-            }
-            const keys = [];
-            for (let i = 0; i < positions.length / 3; ++i) {
-                keys.push(`${positions[3 * i] + 0},${positions[3 * i + 1] + 0},${positions[3 * i + 2] + 0}`);
-            }
-            keysOf.set(id, { keys, index });
-        }
-        const { keys, index } = keysOf.get(id);
-        const out = [];
-        for (let t = 0; t < index.length; t += 3) out.push([keys[index[t]], keys[index[t + 1]], keys[index[t + 2]]]);
-        return out;
-    };
+    const { objects } = getModel();
     const dags = objects.map((o) => o.dag);
     const scene = sceneSphere(objects);
     const rnd = random(777);
@@ -506,7 +550,7 @@ test('drawn clusters of random cuts form closed, consistently oriented surfaces 
             isLoaded,
         });
         result.cuts.forEach((cut, di) => {
-            const triangles = cut.drawn.flatMap((c) => clusterTriangles(objects[di].ext.clusters[c]));
+            const triangles = cut.drawn.flatMap((c) => objects[di].triangles[c]);
             const problem = closedProblem(triangles);
             assert.equal(
                 problem,
@@ -547,55 +591,4 @@ function bufferViewBytes(json, buffers, index) {
     const view = json.bufferViews[index];
     const start = view.byteOffset ?? 0;
     return buffers[view.buffer].subarray(start, start + view.byteLength);
-}
-
-function readAccessor(json, buffers, index) {
-    const accessor = json.accessors[index];
-    const n = { SCALAR: 1, VEC3: 3 }[accessor.type];
-    const bytes = bufferViewBytes(json, buffers, accessor.bufferView);
-    const offset = bytes.byteOffset + (accessor.byteOffset ?? 0);
-    const copy = (T) => new T(bytes.buffer.slice(offset, offset + accessor.count * n * T.BYTES_PER_ELEMENT));
-    switch (accessor.componentType) {
-        case 5126:
-            return copy(Float32Array);
-        case 5125:
-            return copy(Uint32Array);
-        case 5123:
-            return copy(Uint16Array);
-        case 5121:
-            return copy(Uint8Array);
-        default:
-            throw new Error(`accessor ${index}: component type ${accessor.componentType}`);
-    }
-}
-
-function dracoDecode(draco, bytes, positionId) {
-    const array = new Int8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-    const decoder = new draco.Decoder();
-    const mesh = new draco.Mesh();
-    try {
-        const status = decoder.DecodeArrayToMesh(array, array.byteLength, mesh);
-        if (!status.ok()) throw new Error(`Draco: ${status.error_msg()}`);
-        const numPoints = mesh.num_points();
-        const numFaces = mesh.num_faces();
-        const attribute = decoder.GetAttributeByUniqueId(mesh, positionId);
-        const floats = new draco.DracoFloat32Array();
-        decoder.GetAttributeFloatForAllPoints(mesh, attribute, floats);
-        const positions = new Float32Array(numPoints * 3);
-        for (let i = 0; i < positions.length; ++i) positions[i] = floats.GetValue(i);
-        draco.destroy(floats);
-        const index = new Uint32Array(numFaces * 3);
-        const face = new draco.DracoInt32Array();
-        for (let f = 0; f < numFaces; ++f) {
-            decoder.GetFaceFromMesh(mesh, f, face);
-            index[3 * f] = face.GetValue(0);
-            index[3 * f + 1] = face.GetValue(1);
-            index[3 * f + 2] = face.GetValue(2);
-        }
-        draco.destroy(face);
-        return { positions, index };
-    } finally {
-        draco.destroy(mesh);
-        draco.destroy(decoder);
-    }
 }
