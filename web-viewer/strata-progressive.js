@@ -416,6 +416,7 @@ export class StrataObjectController {
             }
         }
         this.refined = cut.refined;
+        this.priority = cut.priority;
         const drawn = shown.some((x, g) => x !== cut.refined[g]) ? drawnClusters(dag, shown) : cut.drawn;
         const drawnSet = new Uint8Array(dag.nc);
         for (const c of drawn) drawnSet[c] = 1;
@@ -877,8 +878,8 @@ export class StrataProgressivePlugin {
         }
     }
 
-    /// Unloads loaded chunks whose groups are not drawn refined, least recently used first, while
-    /// the loaded chunk triangles exceed the memory budget.
+    /// Unloads loaded chunks whose groups are neither drawn refined nor wanted by the view, least
+    /// recently used first, while the loaded chunk triangles exceed the memory budget.
     evictBeyondBudget() {
         let resident = this.controllers.reduce((s, c) => s + c.chunkTriangles, 0);
         const budget = this.options.memoryBudget;
@@ -886,7 +887,13 @@ export class StrataProgressivePlugin {
         const candidates = [];
         for (const controller of this.controllers) {
             for (let g = 0; g < controller.dag.ng; ++g) {
-                if (controller.groupState[g] === 2 && controller.weight[g] === 0 && !controller.isDrawnRefined(g)) {
+                // not wanted by the view (priority <= 1: refining it would not be asked for now)
+                if (
+                    controller.groupState[g] === 2 &&
+                    !(controller.priority?.[g] > 1) &&
+                    controller.weight[g] === 0 &&
+                    !controller.isDrawnRefined(g)
+                ) {
                     candidates.push({ controller, g, used: controller.groupUsed[g] });
                 }
             }

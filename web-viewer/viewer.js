@@ -154,7 +154,8 @@ async function openUrl(url) {
     timing.loadStart = performance.now();
     $('message').textContent = `loading ${url} ...`;
     const prefixBytes = params.has('prefix') ? Number(params.get('prefix')) : undefined;
-    const result = await loadStrataModel(url, { createLoader, pluginOptions: {}, prefixBytes });
+    const pluginOptions = params.has('memory') ? { memoryBudget: Number(params.get('memory')) } : {};
+    const result = await loadStrataModel(url, { createLoader, pluginOptions, prefixBytes });
     show(result, url.split('/').pop());
 }
 
@@ -381,7 +382,8 @@ function updateHud(now) {
             `loaded     ${formatBytes(s.bytesLoaded)} of ${formatBytes(s.bytesTotal)} (${Math.round((100 * s.bytesLoaded) / Math.max(1, s.bytesTotal))}%)`,
         );
         lines.push(
-            `chunks     ${s.chunksLoaded} of ${s.chunksTotal}, ${strata.inFlight} loading, ${strata.queue.length} queued`,
+            `chunks     ${s.chunksLoaded} of ${s.chunksTotal}, ${strata.inFlight} loading, ${strata.queue.length} queued` +
+                (s.evicted || s.cancelled ? `, ${s.evicted} unloaded, ${s.cancelled} cancelled` : ''),
         );
         const px = last?.maxErrorPx ?? 0;
         lines.push(
@@ -557,6 +559,9 @@ window.strataViewer = {
             bytesTotal: s.bytesTotal ?? 0,
             requests: s.requests ?? 0,
             chunksLoaded: s.chunksLoaded ?? 0,
+            evicted: s.evicted ?? 0,
+            cancelled: s.cancelled ?? 0,
+            residentTriangles: strata?.controllers.reduce((sum, c) => sum + c.chunkTriangles, 0) ?? 0,
             chunksTotal: s.chunksTotal ?? 0,
             failures: s.failures ?? 0,
             inFlight: strata?.inFlight ?? 0,
@@ -717,5 +722,12 @@ window.strataViewer.ready = model
               return false;
           })
     : Promise.resolve(false);
-if (params.has('tau')) setTau(Number(params.get('tau')));
-if (params.has('budget')) setBudget(Number(params.get('budget')));
+// URL values are taken as given (the sliders show them clamped to their ranges)
+if (params.has('tau')) {
+    setTau(Number(params.get('tau')));
+    settings.tau = Number(params.get('tau'));
+}
+if (params.has('budget')) {
+    setBudget(Number(params.get('budget')));
+    settings.budget = Number(params.get('budget'));
+}

@@ -614,9 +614,12 @@ class FileCheck {
             const geometry = new Array(table.clusters.length);
             const world = worlds[index];
             const v = new this.deps.THREE.Vector3();
-            const farthest = (position, sphere) => {
+            // the farthest of the points (all, or those an index uses) from a sphere's centre
+            const farthest = (position, sphere, index = null) => {
                 let worst = 0;
-                for (let i = 0; i < position.length; i += 3) {
+                const n = index === null ? position.length / 3 : index.length;
+                for (let k = 0; k < n; ++k) {
+                    const i = 3 * (index === null ? k : index[k]);
                     v.set(position[i], position[i + 1], position[i + 2]).applyMatrix4(world);
                     worst = Math.max(worst, Math.hypot(v.x - sphere[0], v.y - sphere[1], v.z - sphere[2]));
                 }
@@ -758,7 +761,7 @@ class FileCheck {
             table.groups.forEach((group, g) => {
                 for (const c of group.produced) {
                     if (geometry[c] === undefined) continue;
-                    const worst = farthest(geometry[c].position, group.sphere);
+                    const worst = farthest(geometry[c].position, group.sphere, geometry[c].index);
                     if (worst > group.sphere[3] * (1 + 1e-6) + 1e-9) {
                         this.fail(
                             'dag',

@@ -198,3 +198,115 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
         await server.close();
     }
 });
+
+test(
+    'chunks leaving the cut are unloaded under a memory budget, obsolete requests cancelled, coarsening blended',
+    { timeout: 120000 },
+    async (t) => {
+        const missing = chromiumMissing();
+        assert.equal(missing, null, missing ?? '');
+        const server = await startServer({ model: kModel, port: 0 });
+        const browser = await launchChromium({ viewport: { width: 900, height: 640 } });
+        const problems = [];
+        try {
+            const page = await browser.context.newPage();
+            page.on('console', (message) => {
+                if (message.type() === 'error') problems.push(`console error: ${message.text()}`);
+            });
+            page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
+            page.on('requestfailed', (request) => {
+                // cancelled chunk requests are expected here; anything else is not
+                if (request.failure()?.errorText !== 'net::ERR_ABORTED')
+                    problems.push(`request failed: ${request.url()}`);
+            });
+            const hook = (fn, arg) => page.evaluate(fn, arg);
+            const state = () => hook(() => window.strataViewer.state());
+            const idle = async () =>
+                assert.ok(await hook(() => window.strataViewer.idle(30000)), 'the viewer did not settle');
+            const settle = async (frames = 3) => {
+                for (let i = 0; i < frames; ++i) await hook(() => window.strataViewer.nextFrame());
+                await idle();
+            };
+            await page.goto(`${server.url}&tau=8&prefix=16384&preserve`);
+            assert.ok(await hook(() => window.strataViewer.ready), 'the model did not load');
+            await idle();
+            const first = await state();
+            // zoom in: everything near gets loaded; learn how many chunk triangles that is
+            await hook(() => window.strataViewer.dolly(0.2));
+            await settle();
+            const near = await state();
+            assert.ok(near.residentTriangles > 0, 'zooming in loaded nothing');
+            // the same with a memory budget of half of that: zooming out unloads chunks down to it
+            const memory = Math.floor(near.residentTriangles / 2);
+            await page.goto(`${server.url}&tau=8&prefix=16384&preserve&memory=${memory}`);
+            assert.ok(await hook(() => window.strataViewer.ready), 'the model did not load');
+            await idle();
+            await hook(() => window.strataViewer.dolly(0.2));
+            await settle();
+            const loaded = await state();
+            await hook(() => window.strataViewer.dolly(1 / 0.2));
+            await settle();
+            const out = await state();
+            t.diagnostic(
+                `memory budget ${memory} triangles: zoomed in ${loaded.residentTriangles} resident, zoomed out ${out.residentTriangles}, ${out.evicted} chunks unloaded`,
+            );
+            assert.ok(out.evicted > 0, 'no chunk was unloaded');
+            assert.ok(
+                out.residentTriangles <= memory,
+                `${out.residentTriangles} chunk triangles resident, budget ${memory}`,
+            );
+            assert.equal(out.triangles, first.triangles, 'after unloading, the first view draws what it drew at first');
+            // blending out: zoomed in with everything loaded, a smaller triangle budget coarsens
+            // without the threshold announcing it: the consumed clusters stay drawn while they morph
+            await hook(() => window.strataViewer.dolly(0.2));
+            await settle();
+            const before = await state();
+            await hook((budget) => (window.strataViewer.settings.budget = budget), first.triangles + 1);
+            let morphing = 0;
+            let extra = 0;
+            for (let i = 0; i < 10; ++i) {
+                await hook(() => window.strataViewer.nextFrame());
+                morphing = Math.max(morphing, (await hook(() => window.strataViewer.morphWeights())).morphing);
+                const s = await state();
+                extra = Math.max(extra, s.rendererTriangles - s.triangles);
+            }
+            await idle();
+            const coarse = await state();
+            t.diagnostic(
+                `budget cut: ${before.triangles} -> ${coarse.triangles} triangles; ${morphing} clusters morphing out, up to ${extra} triangles drawn beyond the cut meanwhile`,
+            );
+            assert.ok(coarse.triangles < before.triangles, 'the smaller budget did not coarsen');
+            assert.ok(morphing > 0 && extra > 0, 'the coarsening did not blend');
+            assert.equal(coarse.rendererTriangles, coarse.triangles, 'after the blend the cut alone is drawn');
+            // cancelling: a slow link; zoom in (chunks requested), then back out at once
+            await hook((budget) => (window.strataViewer.settings.budget = budget), 2e6);
+            await hook(() => window.strataViewer.dolly(1 / 0.2));
+            await settle();
+            const cdp = await browser.context.newCDPSession(page);
+            await cdp.send('Network.enable');
+            await cdp.send('Network.emulateNetworkConditions', {
+                offline: false,
+                latency: 1500,
+                downloadThroughput: 1e6,
+                uploadThroughput: 1e6,
+            });
+            const cancelledBefore = (await state()).cancelled;
+            await hook(() => window.strataViewer.dolly(0.2));
+            await hook(() => window.strataViewer.nextFrame());
+            const requested = await state();
+            await hook(() => window.strataViewer.dolly(1 / 0.2));
+            await settle();
+            const after = await state();
+            t.diagnostic(
+                `slow link: ${requested.inFlight} chunks in flight after zooming in; zoomed out at once: ${after.cancelled - cancelledBefore} cancelled`,
+            );
+            assert.ok(requested.inFlight > 0, 'zooming in requested no chunk');
+            assert.ok(after.cancelled > cancelledBefore, 'no obsolete request was cancelled');
+            assert.equal(after.failures, 0);
+            assert.deepEqual(problems, []);
+        } finally {
+            await browser.close();
+            await server.close();
+        }
+    },
+);

@@ -26,7 +26,20 @@ const kHere = dirname(fileURLToPath(import.meta.url));
 const kExample = join(kHere, '..', '..', 'schema', 'example.node.STRATA_progressive_mesh.json');
 
 test('the schema example: base, refined, screen-space error', () => {
-    const ext = JSON.parse(readFileSync(kExample, 'utf8'));
+    // the DAG the example's table describes (decode.test.mjs checks the table itself): clusters 0
+    // and 1 consumed by group 0, which produced root cluster 2; the example's numbers
+    const example = JSON.parse(readFileSync(kExample, 'utf8'));
+    const sphere = [0.1, 0.2, 0.3, 0.05];
+    const ext = {
+        clusters: [
+            { level: 0, consumer: 0, sphere },
+            { level: 0, consumer: 0, sphere },
+            { level: 1, producer: 0, sphere },
+        ],
+        groups: [{ level: 1, error: example.errors[0], sphere, consumed: [0, 1], produced: [2] }],
+        fullResolutionError: example.fullResolutionError,
+        gridStep: example.gridStep,
+    };
     assert.deepEqual(validateExtension(ext), []);
     const dag = buildDag(ext, { clusterTriangles: [1000, 1000, 900] });
     assert.deepEqual(drawnClusters(dag, Uint8Array.of(0)), [2]);
