@@ -58,14 +58,14 @@ import { parseDagTable, readExtension, resolveSlots, shadingNormals, splitByClus
 
 const kDefaults = {
     concurrency: 4, // HTTP requests in flight
-    maxDecodes: 8, // chunks fetched or decoding at once (DRACOLoader's workers queue them)
+    maxDecodes: 24, // chunks fetched or decoding at once (DRACOLoader's workers queue them)
     morph: true, // geomorphs
     morphK: 2, // w = clamp((k - sse / tau) / (k - 1), 0, 1)
     blendMs: 300, // time blend of a refinement or coarsening the threshold did not announce
     cull: true, // refine only groups whose sphere meets the view frustum
     normals: true, // shading normals over the drawn cut (false: the base's normals, chunks flat)
     memoryBudget: 4e6, // triangles of loaded chunks kept; beyond it, chunks off the cut are unloaded
-    maxRangeGap: 16384, // merge chunk ranges of one buffer closer than this into one request
+    maxRangeGap: 32768, // merge chunk ranges of one buffer closer than this into one request
     maxRangeBytes: 1 << 20, // ... up to this length
     source: null, // set by loadStrataModel: { kind: 'glb-range', url, binOffset, length, prefix }
     initialBytes: 0, // bytes fetched before GLTFLoader ran (loadStrataModel: the JSON)
@@ -571,6 +571,8 @@ export class StrataProgressivePlugin {
             failures: 0,
             cancelled: 0,
             evicted: 0,
+            decodeWaitMs: 0, // summed time chunks waited for the Draco workers
+            attachMs: 0, // main-thread time spent resolving slots and building cluster meshes
         };
         this.fetcher = new RangeFetcher(
             this.options.fetch ?? globalThis.fetch.bind(globalThis),
@@ -580,6 +582,7 @@ export class StrataProgressivePlugin {
         this.controllers = [];
         this.controllerOf = new Map(); // node index -> controller
         this.viewBytes = new Map(); // bufferView index -> ArrayBuffer fetched ahead (ranges)
+        this.stashed = new Map(); // "node/group" -> ArrayBuffer of a chunk that came in a fetched range
         this.queue = []; // wanted chunks of the last update, best first: { controller, group, priority }
         this.batches = new Set(); // fetches in flight: { items, abort, fetched }
         this.requests = 0; // HTTP requests in flight
@@ -832,7 +835,8 @@ export class StrataProgressivePlugin {
                 continue;
             }
             const range = this.chunkRange(first.controller, first.group);
-            const ranged = this.isRanged(range.buffer);
+            const ranged =
+                this.isRanged(range.buffer) && !this.stashed.has(`${first.controller.nodeIndex}/${first.group}`);
             if (ranged && this.requests >= this.options.concurrency) break;
             this.queue.shift();
             const items = [{ ...first, range }];
@@ -842,7 +846,11 @@ export class StrataProgressivePlugin {
                 for (let i = 0; i < this.queue.length && i < 256; ++i) {
                     if (this.decoding + items.length >= this.options.maxDecodes) break;
                     const w = this.queue[i];
-                    if (w.controller.groupState[w.group] !== 0) continue;
+                    if (
+                        w.controller.groupState[w.group] !== 0 ||
+                        this.stashed.has(`${w.controller.nodeIndex}/${w.group}`)
+                    )
+                        continue;
                     const r = this.chunkRange(w.controller, w.group);
                     if (
                         r.buffer !== range.buffer ||
@@ -867,6 +875,25 @@ export class StrataProgressivePlugin {
     /// Chunks being fetched or decoded.
     get inFlight() {
         return this.decoding;
+    }
+
+    /// Keeps the chunks not yet loaded that lie wholly inside a fetched range (the gaps of a
+    /// coalesced request), so that they are not fetched again when they are wanted.
+    stash(batch, bytes) {
+        const inBatch = new Set(batch.items.map((w) => `${w.controller.nodeIndex}/${w.group}`));
+        for (const controller of this.controllers) {
+            const def = this.parser.json.bufferViews[controller.chunksView];
+            if (def.buffer !== batch.buffer) continue;
+            const base = def.byteOffset ?? 0;
+            if (base + def.byteLength <= batch.start || base >= batch.end) continue;
+            controller.dag.groups.forEach((group, g) => {
+                const a = base + group.chunkOffset;
+                const b = a + group.chunkLength;
+                const key = `${controller.nodeIndex}/${g}`;
+                if (a < batch.start || b > batch.end || controller.groupState[g] !== 0 || inBatch.has(key)) return;
+                if (!this.stashed.has(key)) this.stashed.set(key, bytes.slice(a - batch.start, b - batch.start));
+            });
+        }
     }
 
     /// Aborts fetches none of whose chunks is wanted any more (their groups can be asked again).
@@ -916,8 +943,12 @@ export class StrataProgressivePlugin {
         this.batches.add(entry);
         if (batch.ranged) ++this.requests;
         let bytes;
+        const key = `${batch.items[0].controller.nodeIndex}/${batch.items[0].group}`;
         try {
-            if (batch.ranged) {
+            if (this.stashed.has(key)) {
+                bytes = this.stashed.get(key);
+                this.stashed.delete(key);
+            } else if (batch.ranged) {
                 try {
                     if (this.options.source?.kind === 'glb-range' && batch.buffer === 0) {
                         bytes = await this.glbRange(batch.start, batch.end, abort?.signal);
@@ -951,15 +982,20 @@ export class StrataProgressivePlugin {
         }
         entry.fetched = true;
         this.batches.delete(entry);
+        if (batch.ranged) this.stash(batch, bytes);
         this.pump(); // the request slot is free
         await Promise.all(
             batch.items.map(async ({ controller, group, range }) => {
                 try {
                     const chunk = bytes.slice(range.start - batch.start, range.end - batch.start);
                     this.stats.chunkBytesLoaded += chunk.byteLength;
+                    const d0 = performance.now();
                     const decoded = await this.decodeChunk(chunk);
+                    this.stats.decodeWaitMs += performance.now() - d0;
                     if (controller.groupState[group] !== 1) return; // unloaded meanwhile
+                    const t0 = performance.now();
                     controller.attachChunk(group, decoded);
+                    this.stats.attachMs += performance.now() - t0;
                     ++this.stats.chunksLoaded;
                     this.changed = true;
                     this.options.onChange?.(controller, group);

@@ -149,6 +149,7 @@ const frameTimes = []; // intervals between consecutive animation frames that bo
 const renderStamps = []; // performance.now() of every rendered frame
 const tickTimes = []; // intervals between animation frames, rendered or not (main-thread jank)
 let lastFrame = 0;
+const cpu = { update: 0, render: 0 }; // main-thread ms spent selecting (with normals) and drawing
 
 async function openUrl(url) {
     timing.loadStart = performance.now();
@@ -474,12 +475,14 @@ function frame(now) {
     }
     if (strata) {
         const height = renderer.getDrawingBufferSize(new THREE.Vector2()).y;
+        const t0 = performance.now();
         last = strata.update(camera, height, settings.tau, settings.budget, {
             roi,
             morph: settings.morph,
             cull: settings.cull,
         });
         if (last.changed || last.blending) cutChanged = true;
+        cpu.update += performance.now() - t0;
     }
     // A change of the cut alone (chunks arriving) is drawn at most every 2 frame times: where
     // drawing is slow (software WebGL, huge cuts) loading then keeps most of the main thread.
@@ -494,7 +497,9 @@ function frame(now) {
         cutChanged = false;
         if (rendered && lastFrame > 0) frameTimes.push(now - lastFrame);
         if (frameTimes.length > 5000) frameTimes.splice(0, frameTimes.length - 5000);
+        const t1 = performance.now();
         renderer.render(scene, camera);
+        cpu.render += performance.now() - t1;
         ++window.strataViewer.renderedFrames;
         drawAxes();
         dirty = false;
@@ -576,6 +581,7 @@ window.strataViewer = {
             objects: strata?.controllers.map((c) => c.name) ?? [],
             cameraDistance: camera.position.distanceTo(controls.target),
             timing: { ...timing },
+            cpu: { ...cpu, attach: s.attachMs ?? 0, decodeWait: s.decodeWaitMs ?? 0 },
         };
     },
     /// Moves the camera towards the orbit target (factor < 1) or away from it (factor > 1).
