@@ -632,6 +632,15 @@ export class StrataProgressivePlugin {
         const a = binOffset + start;
         const b = binOffset + end;
         if (prefix && b <= prefix.byteLength) return Promise.resolve(prefix.slice(a, b));
+        if (prefix && a < prefix.byteLength) {
+            // the first part is in the prefix: fetch the rest only
+            return this.fetcher.range(url, prefix.byteLength, b, signal).then((rest) => {
+                const joined = new Uint8Array(b - a);
+                joined.set(new Uint8Array(prefix, a, prefix.byteLength - a), 0);
+                joined.set(new Uint8Array(rest), prefix.byteLength - a);
+                return joined.buffer;
+            });
+        }
         return this.fetcher.range(url, a, b, signal);
     }
 
@@ -1103,7 +1112,13 @@ export async function loadStrataModel(
     let bytesRead = 0;
     let requests = 0;
     const ranges = []; // [url, start, end) read here
-    const response = await doFetch(absolute, { headers: { Range: `bytes=0-${kPrefix - 1}` } });
+    // the page may have sent this first request already (index.html: globalThis.strataFirstRequest)
+    const early = globalThis.strataFirstRequest;
+    const response =
+        early?.url === absolute && early.prefix === kPrefix && fetchFn === null
+            ? await early.response
+            : await doFetch(absolute, { headers: { Range: `bytes=0-${kPrefix - 1}` } });
+    if (early?.url === absolute) globalThis.strataFirstRequest = null;
     if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
     let prefix = await response.arrayBuffer();
     bytesRead += prefix.byteLength;

@@ -152,7 +152,8 @@ let lastFrame = 0;
 const cpu = { update: 0, render: 0 }; // main-thread ms spent selecting (with normals) and drawing
 
 async function openUrl(url) {
-    timing.loadStart = performance.now();
+    // the model's first request may have started in index.html, before the modules loaded
+    timing.loadStart = window.strataFirstRequest?.at ?? performance.now();
     $('message').textContent = `loading ${url} ...`;
     const prefixBytes = params.has('prefix') ? Number(params.get('prefix')) : undefined;
     const pluginOptions = params.has('memory') ? { memoryBudget: Number(params.get('memory')) } : {};
