@@ -26,6 +26,7 @@
 #include "input/write_slice_stack.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/mesh_io.h"
+#include "mesh/shading_normals.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
 
@@ -572,7 +573,9 @@ int run_build(const BuildOptions& options) {
         const std::filesystem::path mesh_file =
             options.output_dir / "meshes" / (stem + "." + options.mesh_format);
         if (!object.mesh.triangles.empty()) {
-            write_mesh(object.mesh, mesh_file);
+            write_mesh(
+                object.mesh, mesh_file,
+                options.mesh_format == "stl" ? std::vector<Vec3>{} : shading_normals(object.mesh));
         }
         Json genus = Json::array();
         for (const int g : component_genera(check)) {
