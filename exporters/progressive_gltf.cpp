@@ -1,11 +1,11 @@
-// Progressive glTF 2.0 (../shared/DESIGN.md section 4; the extension is specified in
-// schema/README.md): the base mesh as plain primitives, every other cluster a Draco-compressed
-// primitive (KHR_draco_mesh_compression, Khronos 2019), the DAG in STRATA_progressive_mesh.
+// Progressive glTF 2.0, STRATA_progressive_mesh version 2 (schema/README.md; docs/format.md has
+// the measurements behind it): the base mesh as one Draco primitive (KHR_draco_mesh_compression),
+// one raw Draco chunk per group, the DAG as a binary table, one error per group in the JSON.
 //
 // The JSON is written with nlohmann_json and the GLB container by hand (glTF 2.0 specification
-// section 4.4): tinygltf cannot write Draco primitives. Draco encodes each chunk with explicit
-// quantization on the model's own dyadic grid: origin and range multiples of the grid step, so
-// Draco's float quantize/dequantize steps are exact and decoded positions equal ours bit for bit.
+// section 4.4): tinygltf cannot write Draco primitives. Draco encodes with explicit quantization
+// on the model's own dyadic grid: origin and range multiples of the grid step, so Draco's float
+// quantize/dequantize steps are exact and decoded positions equal ours bit for bit.
 #include "exporters/progressive_gltf.h"
 
 #include <algorithm>
@@ -19,8 +19,6 @@
 #include <system_error>
 #include <unordered_map>
 
-#include <draco/compression/decode.h>
-#include <draco/mesh/mesh.h>
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_write.h"
@@ -29,6 +27,7 @@
 #include "core/parallel.h"
 #include "exporters/detail/draco_chunk.h"
 #include "exporters/detail/gltf_common.h"
+#include "exporters/progressive_format.h"
 
 namespace strata {
 
@@ -37,16 +36,23 @@ namespace {
 using Json = nlohmann::ordered_json;
 using detail::to_float;
 
-constexpr int kFloat = 5126;
-constexpr int kUnsignedShort = 5123;
-constexpr int kUnsignedInt = 5125;
-constexpr int kArrayBuffer = 34962;
-constexpr int kElementArrayBuffer = 34963;
 constexpr double kRoughness = 0.6;
 constexpr std::size_t kMaxShortVertices = 65535;  // index 65535 is the primitive restart value
-constexpr const char* kExtension = "STRATA_progressive_mesh";
-constexpr const char* kDraco = "KHR_draco_mesh_compression";
-constexpr const char* kCoarse = "_COARSE_POSITION";
+constexpr int kErrorDigits = 3;     ///< errors rounded up to 3 significant digits (JSON bytes)
+constexpr int kColorDecimals = 5;   ///< linear colour channels (from 8-bit sRGB: 1/255)
+constexpr int kVolumeDecimals = 3;  ///< mL
+
+/// The double a JSON reader parses from `x` printed with `decimals` decimals (nlohmann prints it
+/// back as that short decimal).
+double short_decimal(double x, int decimals) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%.*f", decimals, x);
+    return std::strtod(text, nullptr);
+}
+
+std::string key(std::string_view name) {
+    return std::string(name);
+}
 
 [[noreturn]] void fail(ErrorCode code, const std::filesystem::path& path, const std::string& what) {
     throw Error(code, path.string() + ": " + what);
@@ -134,64 +140,6 @@ StorageFrame storage_frame(const std::filesystem::path& path, const SliceFrame& 
     return s;
 }
 
-/// The double a JSON reader parses from `x` printed with `decimals` decimals (nlohmann prints it
-/// back as that short decimal). Keeps the JSON small: spheres need micrometres, not 17 digits.
-double short_decimal(double x, int decimals) {
-    char text[64];
-    std::snprintf(text, sizeof text, "%.*f", decimals, x);
-    return std::strtod(text, nullptr);
-}
-
-/// The smallest 7-significant-digit decimal (as parsed) >= x: for bounds, which may only grow.
-double short_bound(double x) {
-    char text[64];
-    for (double up = x;;
-         up = std::nextafter(up + std::abs(up) * 1e-7, std::numeric_limits<double>::infinity())) {
-        std::snprintf(text, sizeof text, "%.7g", up);
-        const double r = std::strtod(text, nullptr);
-        if (r >= x || !std::isfinite(r)) {
-            return r >= x ? r : x;
-        }
-    }
-}
-
-constexpr int kSphereDecimals = 6;  ///< metres: 1 micrometre, 1/50 of a 0.05 mm grid step
-
-/// A sphere in the scene frame (metres) as written: centre at kSphereDecimals decimals, radius
-/// rounded up so that it still contains the exact sphere and every sphere in `inside` (already
-/// written ones: nesting survives the rounding).
-struct SceneSphere {
-    std::array<double, 4> v{};  ///< x, y, z, r as parsed back from the JSON
-    Json json() const { return Json::array({v[0], v[1], v[2], v[3]}); }
-};
-
-SceneSphere scene_sphere(const StorageFrame& s,
-                         const Sphere& sphere,
-                         const std::vector<const SceneSphere*>& inside = {}) {
-    const Vec3 c = sphere.center;
-    std::array<double, 3> exact{};
-    SceneSphere out;
-    for (int r = 0; r < 3; ++r) {
-        exact[r] = s.scene_origin[r] + s.to_scene[3 * r] * c.x + s.to_scene[3 * r + 1] * c.y +
-                   s.to_scene[3 * r + 2] * c.z;
-        out.v[r] = short_decimal(exact[r], kSphereDecimals);
-    }
-    const auto distance = [&](const std::array<double, 4>& to) {
-        return std::hypot(out.v[0] - to[0], out.v[1] - to[1], out.v[2] - to[2]);
-    };
-    double radius = sphere.radius * s.scene_scale + distance({exact[0], exact[1], exact[2], 0.0});
-    for (const SceneSphere* other : inside) {
-        radius = std::max(radius, distance(other->v) + other->v[3]);
-    }
-    radius += 1e-12 * (1.0 + std::abs(out.v[0]) + std::abs(out.v[1]) + std::abs(out.v[2]));
-    const double step = std::pow(10.0, -kSphereDecimals);
-    out.v[3] = short_decimal(std::ceil(radius / step) * step, kSphereDecimals);
-    while (out.v[3] < radius) {
-        out.v[3] = short_decimal(out.v[3] + step, kSphereDecimals);
-    }
-    return out;
-}
-
 /// Grid coordinates of one slice-space position as floats (exact: multiples of the grid step).
 struct GridPoint {
     std::array<float, 3> v;
@@ -202,204 +150,267 @@ GridPoint grid_point(const Vec3& p, double step, double d, double flip_x) {
     return {{to_float(flip_x * p.x), to_float(p.y), to_float(z)}};
 }
 
-}  // namespace
-
-std::vector<std::vector<std::array<float, 3>>> progressive_cluster_normals(
-    const MultiresMesh& model, const std::vector<std::array<float, 3>>& points, bool reverse) {
-    std::vector<std::vector<std::array<float, 3>>> normals(model.clusters.size());
-    std::vector<Vec3> sum(points.size());
-    const auto at = [&](std::uint32_t v) { return Vec3{points[v][0], points[v][1], points[v][2]}; };
-    for (std::uint32_t level = 0; level < level_count(model); ++level) {
-        const MultiresCut cut = select_cut_at_level(model, level);
-        for (const std::uint32_t c : cut.clusters) {
-            const MultiresCluster& cluster = model.clusters[c];
-            for (const auto& t : cluster.triangles) {
-                std::array<std::uint32_t, 3> ids{cluster.vertices[t[0]], cluster.vertices[t[1]],
-                                                 cluster.vertices[t[2]]};
-                if (reverse) {
-                    std::swap(ids[1], ids[2]);
-                }
-                const Vec3 a = at(ids[0]);
-                const Vec3 n = cross(at(ids[1]) - a, at(ids[2]) - a);
-                for (const std::uint32_t v : ids) {
-                    sum[v] = sum[v] + n;
-                }
-            }
-        }
-        for (const std::uint32_t c : cut.clusters) {
-            const MultiresCluster& cluster = model.clusters[c];
-            if (cluster.level != level) {
-                continue;
-            }
-            std::vector<std::array<float, 3>>& out = normals[c];
-            out.reserve(cluster.vertices.size());
-            for (const std::uint32_t v : cluster.vertices) {
-                const double length = norm(sum[v]);
-                const Vec3 n = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * sum[v]
-                                                                       : Vec3{0, 0, 1};
-                out.push_back({to_float(n.x), to_float(n.y), to_float(n.z)});
-            }
-        }
-        for (const std::uint32_t c : cut.clusters) {
-            for (const std::uint32_t v : model.clusters[c].vertices) {
-                sum[v] = Vec3{};
-            }
-        }
+/// A sphere in the scene frame as float32 (the DAG table): the centre rounded to float, the
+/// radius rounded up so that it contains the exact sphere and every sphere in `inside`.
+std::array<float, 4> scene_sphere(const StorageFrame& s,
+                                  const Sphere& sphere,
+                                  const std::vector<const std::array<float, 4>*>& inside) {
+    const Vec3 c = sphere.center;
+    std::array<double, 3> exact{};
+    std::array<float, 4> out{};
+    for (int r = 0; r < 3; ++r) {
+        exact[r] = s.scene_origin[r] + s.to_scene[3 * r] * c.x + s.to_scene[3 * r + 1] * c.y +
+                   s.to_scene[3 * r + 2] * c.z;
+        out[r] = to_float(exact[r]);
     }
-    return normals;
+    const auto distance = [&](const std::array<double, 3>& to) {
+        return std::hypot(double(out[0]) - to[0], double(out[1]) - to[1], double(out[2]) - to[2]);
+    };
+    double radius = sphere.radius * s.scene_scale + distance(exact);
+    for (const std::array<float, 4>* other : inside) {
+        radius = std::max(radius, distance({(*other)[0], (*other)[1], (*other)[2]}) + (*other)[3]);
+    }
+    radius *= 1.0 + 1e-7;
+    float r = to_float(radius);
+    while (double(r) < radius) {
+        r = std::nextafter(r, std::numeric_limits<float>::infinity());
+    }
+    out[3] = r;
+    return out;
 }
 
-namespace {
+std::array<std::uint32_t, 3> canonical(std::array<std::uint32_t, 3> t) {
+    std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    return t;
+}
 
-/// One encoded chunk and what its accessors need.
-struct Chunk {
+/// One object's geometry on its grid, in the file's frame and orientation.
+struct ObjectGrid {
+    const MultiresMesh* model = nullptr;
+    std::vector<std::array<float, 3>> points;  ///< per model vertex
+    bool reverse = false;                      ///< triangles reversed (mirroring frame)
+    double step = 0.0;
+};
+
+/// A Draco mesh over some clusters of a model, as encoded, with what its accessors need.
+struct EncodedMesh {
     std::string bytes;
     std::uint32_t points = 0;
     std::uint32_t faces = 0;
     std::array<float, 3> min{}, max{};
-    int position_id = 0, normal_id = 0, coarse_id = 0;
+    detail::DracoChunkBytes ids;
 };
 
-/// Encodes one cluster with Draco (detail::encode_draco_chunk) and checks the decoded mesh
-/// against it.
-Chunk encode_chunk(const std::filesystem::path& path,
-                   const std::string& where,
-                   const MultiresCluster& cluster,
-                   const std::vector<GridPoint>& points,
-                   const std::vector<std::array<float, 3>>& normals,  // per cluster vertex
-                   bool reverse,
-                   double step,
-                   const ProgressiveOptions& options) {
-    const std::size_t n = cluster.vertices.size();
-    detail::DracoChunkInput input;
-    input.step = step;
-    input.normals = normals;
-    for (std::size_t i = 0; i < n; ++i) {
-        input.positions.push_back(points[cluster.vertices[i]].v);
-        input.coarse.push_back(points[cluster.coarse_vertices[i]].v);
+/// The welded input of `clusters` (each one `_CLUSTER` value, in this order): local vertices
+/// in increasing model id, and for each the model vertex.
+detail::DracoChunkInput mesh_input(const ObjectGrid& grid,
+                                   const std::vector<std::uint32_t>& clusters,
+                                   std::vector<std::uint32_t>& vertices) {
+    const MultiresMesh& model = *grid.model;
+    vertices.clear();
+    for (const std::uint32_t c : clusters) {
+        vertices.insert(vertices.end(), model.clusters[c].vertices.begin(),
+                        model.clusters[c].vertices.end());
     }
-    for (const auto& t : cluster.triangles) {
-        input.triangles.push_back({t[0], reverse ? t[2] : t[1], reverse ? t[1] : t[2]});
-    }
-    detail::DracoChunkBytes encoded;
-    try {
-        encoded = detail::encode_draco_chunk(input, options.compression_level, options.normal_bits);
-    } catch (const Error& e) {
-        fail(e.code(), path, where + ": " + e.what());
-    }
-    Chunk chunk;
-    chunk.bytes = std::move(encoded.bytes);
-    chunk.position_id = encoded.position_id;
-    chunk.normal_id = encoded.normal_id;
-    chunk.coarse_id = encoded.coarse_id;
-
-    // Decode and compare: every decoded triangle is one of the cluster's, same orientation, and
-    // every point carries its vertex's coarse position.
-    draco::DecoderBuffer in;
-    in.Init(chunk.bytes.data(), chunk.bytes.size());
-    draco::Decoder decoder;
-    auto decoded_or = decoder.DecodeMeshFromBuffer(&in);
-    if (!decoded_or.ok()) {
-        fail(ErrorCode::Internal, path,
-             where + ": Draco cannot decode its own output: " + decoded_or.status().error_msg());
-    }
-    const std::unique_ptr<draco::Mesh> decoded = std::move(decoded_or).value();
-    const draco::PointAttribute* dp = decoded->GetAttributeByUniqueId(chunk.position_id);
-    const draco::PointAttribute* dc = decoded->GetAttributeByUniqueId(chunk.coarse_id);
-    if (dp == nullptr || dc == nullptr || decoded->num_faces() != cluster.triangles.size()) {
-        fail(ErrorCode::Internal, path, where + ": Draco round trip lost attributes or faces");
-    }
-    std::map<std::array<float, 3>, std::uint32_t> local;
-    for (std::size_t i = 0; i < n; ++i) {
-        local.emplace(points[cluster.vertices[i]].v, static_cast<std::uint32_t>(i));
-    }
-    chunk.points = decoded->num_points();
-    chunk.faces = decoded->num_faces();
-    chunk.min.fill(std::numeric_limits<float>::infinity());
-    chunk.max.fill(-std::numeric_limits<float>::infinity());
-    std::vector<std::uint32_t> vertex_of(chunk.points);
-    for (std::uint32_t i = 0; i < chunk.points; ++i) {
-        std::array<float, 3> p{}, c{};
-        dp->ConvertValue<float, 3>(dp->mapped_index(draco::PointIndex(i)), p.data());
-        dc->ConvertValue<float, 3>(dc->mapped_index(draco::PointIndex(i)), c.data());
-        const auto it = local.find(p);
-        if (it == local.end() || points[cluster.coarse_vertices[it->second]].v != c) {
-            fail(ErrorCode::Internal, path,
-                 where + ": Draco moved a position off the grid (decoded point " +
-                     std::to_string(i) + ")");
-        }
-        vertex_of[i] = it->second;
-        for (int k = 0; k < 3; ++k) {
-            chunk.min[k] = std::min(chunk.min[k], p[k]);
-            chunk.max[k] = std::max(chunk.max[k], p[k]);
-        }
-    }
-    const auto canonical = [](std::array<std::uint32_t, 3> t) {
-        std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
-        return t;
+    std::sort(vertices.begin(), vertices.end());
+    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+    const auto local = [&](std::uint32_t v) {
+        return static_cast<std::uint32_t>(std::lower_bound(vertices.begin(), vertices.end(), v) -
+                                          vertices.begin());
     };
-    std::vector<std::array<std::uint32_t, 3>> expected, got;
-    for (const auto& t : cluster.triangles) {
-        expected.push_back(canonical(reverse ? std::array{t[0], t[2], t[1]} : t));
+    detail::DracoChunkInput in;
+    in.step = grid.step;
+    for (const std::uint32_t v : vertices) {
+        in.positions.push_back(grid.points[v]);
     }
-    for (draco::FaceIndex f(0); f < decoded->num_faces(); ++f) {
-        const auto& face = decoded->face(f);
-        got.push_back(canonical(
-            {vertex_of[face[0].value()], vertex_of[face[1].value()], vertex_of[face[2].value()]}));
+    for (std::uint32_t k = 0; k < clusters.size(); ++k) {
+        const MultiresCluster& cluster = model.clusters[clusters[k]];
+        for (const auto& t : cluster.triangles) {
+            const std::uint32_t a = local(cluster.vertices[t[0]]);
+            const std::uint32_t b = local(cluster.vertices[t[1]]);
+            const std::uint32_t c = local(cluster.vertices[t[2]]);
+            in.triangles.push_back(grid.reverse ? std::array{a, c, b} : std::array{a, b, c});
+            in.triangle_cluster.push_back(k);
+        }
+    }
+    return in;
+}
+
+/// Where every local vertex of a group's chunk collapses (a local vertex; itself: survives).
+std::vector<std::uint32_t> local_coarse(const MultiresMesh& model,
+                                        const MultiresGroup& group,
+                                        const std::vector<std::uint32_t>& vertices,
+                                        const std::string& where) {
+    constexpr std::uint32_t kUnset = std::numeric_limits<std::uint32_t>::max();
+    std::vector<std::uint32_t> coarse(vertices.size(), kUnset);
+    const auto local = [&](std::uint32_t v) {
+        const auto it = std::lower_bound(vertices.begin(), vertices.end(), v);
+        if (it == vertices.end() || *it != v) {
+            throw Error(ErrorCode::Internal, where + ": a vertex collapses outside its group");
+        }
+        return static_cast<std::uint32_t>(it - vertices.begin());
+    };
+    for (const std::uint32_t c : group.consumed) {
+        const MultiresCluster& cluster = model.clusters[c];
+        for (std::size_t i = 0; i < cluster.vertices.size(); ++i) {
+            std::uint32_t& target = coarse[local(cluster.vertices[i])];
+            const std::uint32_t to = local(cluster.coarse_vertices[i]);
+            if (target != kUnset && target != to) {
+                throw Error(ErrorCode::Internal,
+                            where + ": clusters disagree on where a vertex collapses");
+            }
+            target = to;
+        }
+    }
+    return coarse;
+}
+
+/// Decodes `mesh` again and checks it against its input: every triangle of every `_CLUSTER`
+/// value, same orientation, and (with slots) every vertex's coarse vertex.
+void check_decoded(const EncodedMesh& mesh,
+                   const detail::DracoChunkInput& in,
+                   const std::vector<std::uint32_t>& coarse,
+                   std::uint32_t clusters,
+                   const std::string& where) {
+    detail::DecodedChunk d;
+    try {
+        d = detail::decode_draco_chunk(
+            mesh.bytes,
+            {mesh.ids.position_id, mesh.ids.cluster_id, mesh.ids.slot_id, mesh.ids.normal_id},
+            clusters, std::numeric_limits<std::size_t>::max());
+    } catch (const Error& e) {
+        throw Error(ErrorCode::Internal,
+                    where + ": Draco cannot decode its own output: " + e.what());
+    }
+    std::map<std::array<float, 3>, std::uint32_t> input_vertex;
+    for (std::uint32_t v = 0; v < in.positions.size(); ++v) {
+        input_vertex.emplace(in.positions[v], v);
+    }
+    std::vector<std::uint32_t> vertex_of(d.positions.size());
+    for (std::size_t v = 0; v < d.positions.size(); ++v) {
+        const auto it = input_vertex.find(d.positions[v]);
+        if (it == input_vertex.end()) {
+            throw Error(ErrorCode::Internal, where + ": Draco moved a position off the grid");
+        }
+        vertex_of[v] = it->second;
+    }
+    using Tagged = std::pair<std::uint32_t, std::array<std::uint32_t, 3>>;
+    std::vector<Tagged> expected, got;
+    for (std::size_t t = 0; t < in.triangles.size(); ++t) {
+        expected.push_back({in.triangle_cluster[t], canonical(in.triangles[t])});
+    }
+    for (std::size_t t = 0; t < d.triangles.size(); ++t) {
+        const auto& tri = d.triangles[t];
+        got.push_back({d.triangle_cluster[t],
+                       canonical({vertex_of[tri[0]], vertex_of[tri[1]], vertex_of[tri[2]]})});
     }
     std::sort(expected.begin(), expected.end());
     std::sort(got.begin(), got.end());
     if (expected != got) {
-        fail(ErrorCode::Internal, path, where + ": Draco round trip changed the triangles");
+        throw Error(ErrorCode::Internal, where + ": Draco round trip changed the triangles");
     }
-    return chunk;
+    if (!coarse.empty()) {
+        const std::vector<std::uint32_t> resolved =
+            detail::resolve_slots(d.positions, d.triangles, d.slots);
+        for (std::size_t v = 0; v < resolved.size(); ++v) {
+            if (vertex_of[resolved[v]] != coarse[vertex_of[v]]) {
+                throw Error(ErrorCode::Internal,
+                            where + ": the slots do not decode to the coarse vertices");
+            }
+        }
+    }
 }
 
-/// The binary buffers: buffer 0 holds the base meshes, buffer 1 + L the chunks of level L
-/// (`.gltf`); for `.glb` everything is appended to buffer 0.
-class Buffers {
-public:
-    explicit Buffers(Json& json) : json_(json), data_(1) {}
-
-    /// Appends `bytes` to `buffer` (4-byte aligned) as a new buffer view; returns its index.
-    int add_view(std::size_t buffer, const void* bytes, std::size_t size, int target) {
-        if (data_.size() <= buffer) {
-            data_.resize(buffer + 1);
-        }
-        std::string& data = data_[buffer];
-        Json view = {{"buffer", buffer}, {"byteOffset", data.size()}, {"byteLength", size}};
-        if (target != 0) {
-            view["target"] = target;
-        }
-        data.append(static_cast<const char*>(bytes), size);
-        data.resize((data.size() + 3) / 4 * 4, '\0');
-        json_["bufferViews"].push_back(std::move(view));
-        return static_cast<int>(json_["bufferViews"].size() - 1);
+EncodedMesh encode_checked(const detail::DracoChunkInput& in,
+                           const std::vector<std::uint32_t>& coarse,
+                           std::uint32_t clusters,
+                           const ProgressiveOptions& options,
+                           const std::string& where) {
+    EncodedMesh out;
+    try {
+        out.ids = detail::encode_draco_chunk(in, options.compression_level, options.normal_bits);
+    } catch (const Error& e) {
+        throw Error(e.code(), where + ": " + e.what());
     }
-
-    std::vector<std::string>& data() { return data_; }
-
-    /// For a .glb: every buffer appended to buffer 0, the coarsest level first, the views moved
-    /// with their data. The base meshes stay together at the start of the BIN chunk (one range
-    /// request for a first frame) and a prefix of the file holds the coarse levels.
-    void merge_into_first() {
-        std::vector<std::size_t> start(data_.size(), 0);
-        for (std::size_t b = data_.size(); b-- > 1;) {
-            start[b] = data_[0].size();
-            data_[0] += data_[b];
-            data_[b].clear();
-        }
-        data_.resize(1);
-        for (Json& view : json_["bufferViews"]) {
-            const std::size_t b = view["buffer"].get<std::size_t>();
-            view["byteOffset"] = start[b] + view["byteOffset"].get<std::size_t>();
-            view["buffer"] = 0;
+    out.bytes = std::move(out.ids.bytes);
+    check_decoded(out, in, coarse, clusters, where);
+    const detail::DecodedChunk d =
+        detail::decode_draco_chunk(out.bytes, {out.ids.position_id, -1, -1, -1}, clusters,
+                                   std::numeric_limits<std::size_t>::max());
+    out.points = static_cast<std::uint32_t>(d.points);
+    out.faces = static_cast<std::uint32_t>(d.triangles.size());
+    out.min.fill(std::numeric_limits<float>::infinity());
+    out.max.fill(-std::numeric_limits<float>::infinity());
+    for (const auto& p : d.positions) {
+        for (int k = 0; k < 3; ++k) {
+            out.min[k] = std::min(out.min[k], p[k]);
+            out.max[k] = std::max(out.max[k], p[k]);
         }
     }
+    return out;
+}
 
-private:
-    Json& json_;
-    std::vector<std::string> data_;
+/// The chunk of group `g`: its consumed clusters welded, `_CLUSTER` k = consumed[k], `_SLOT`.
+EncodedMesh group_chunk(const ObjectGrid& grid,
+                        std::size_t g,
+                        const ProgressiveOptions& options,
+                        const std::string& where) {
+    const MultiresGroup& group = grid.model->groups[g];
+    std::vector<std::uint32_t> vertices;
+    detail::DracoChunkInput in = mesh_input(grid, group.consumed, vertices);
+    const std::vector<std::uint32_t> coarse = local_coarse(*grid.model, group, vertices, where);
+    try {
+        in.slots = detail::encode_slots(in.positions, in.triangles, coarse);
+    } catch (const Error& e) {
+        throw Error(e.code(), where + ": " + e.what());
+    }
+    return encode_checked(in, coarse, static_cast<std::uint32_t>(group.consumed.size()), options,
+                          where);
+}
+
+/// The base mesh: every root cluster (`_CLUSTER` k = k-th root), with the area-weighted vertex
+/// normals of the base surface.
+EncodedMesh base_mesh(const ObjectGrid& grid,
+                      const std::vector<std::uint32_t>& roots,
+                      const ProgressiveOptions& options,
+                      const std::string& where) {
+    std::vector<std::uint32_t> vertices;
+    detail::DracoChunkInput in = mesh_input(grid, roots, vertices);
+    std::vector<Vec3> sum(in.positions.size());
+    const auto at = [&](std::uint32_t v) {
+        return Vec3{in.positions[v][0], in.positions[v][1], in.positions[v][2]};
+    };
+    for (const auto& t : in.triangles) {
+        const Vec3 n = cross(at(t[1]) - at(t[0]), at(t[2]) - at(t[0]));
+        for (const std::uint32_t v : t) {
+            sum[v] = sum[v] + n;
+        }
+    }
+    for (const Vec3& s : sum) {
+        const double length = norm(s);
+        const Vec3 n = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * s : Vec3{0, 0, 1};
+        in.normals.push_back({to_float(n.x), to_float(n.y), to_float(n.z)});
+    }
+    return encode_checked(in, {}, static_cast<std::uint32_t>(roots.size()), options, where);
+}
+
+/// The buffer being written: a prefix (tables and bases, a first frame's bytes) and the chunks.
+struct BufferParts {
+    std::string prefix;
+    std::string chunks;
+    struct View {
+        bool in_chunks;
+        std::size_t offset, length;
+    };
+    std::vector<View> views;  ///< in JSON buffer view order
+
+    int add(bool in_chunks, const std::string& bytes) {
+        std::string& part = in_chunks ? chunks : prefix;
+        views.push_back({in_chunks, part.size(), bytes.size()});
+        part += bytes;
+        part.resize((part.size() + 3) / 4 * 4, '\0');
+        return static_cast<int>(views.size() - 1);
+    }
 };
 
 int add_accessor(Json& json, Json accessor) {
@@ -407,107 +418,146 @@ int add_accessor(Json& json, Json accessor) {
     return static_cast<int>(json["accessors"].size() - 1);
 }
 
-/// One plain primitive (a root cluster of the base mesh).
-Json base_primitive(Json& json,
-                    Buffers& buffers,
-                    const MultiresCluster& cluster,
-                    const std::vector<GridPoint>& points,
-                    const std::vector<std::array<float, 3>>& normals,  // per cluster vertex
-                    bool reverse,
-                    int material) {
-    const std::size_t n = cluster.vertices.size();
-    std::vector<float> positions, normal_data;
-    positions.reserve(3 * n);
-    normal_data.reserve(3 * n);
-    Json min = Json::array(), max = Json::array();
-    std::array<float, 3> lo{}, hi{};
-    lo.fill(std::numeric_limits<float>::infinity());
-    hi.fill(-std::numeric_limits<float>::infinity());
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::uint32_t v = cluster.vertices[i];
-        for (int k = 0; k < 3; ++k) {
-            positions.push_back(points[v].v[k]);
-            normal_data.push_back(normals[i][k]);
-            lo[k] = std::min(lo[k], points[v].v[k]);
-            hi[k] = std::max(hi[k], points[v].v[k]);
-        }
-    }
-    for (int k = 0; k < 3; ++k) {
-        min.push_back(lo[k]);
-        max.push_back(hi[k]);
-    }
-    Json primitive;
+/// The base mesh's JSON (one Draco primitive) and its accessors.
+Json base_mesh_json(
+    Json& json, const EncodedMesh& base, int view, std::size_t roots, int material) {
     Json attributes;
-    int view =
-        buffers.add_view(0, positions.data(), positions.size() * sizeof(float), kArrayBuffer);
-    attributes["POSITION"] = add_accessor(json, {{"bufferView", view},
-                                                 {"componentType", kFloat},
-                                                 {"count", n},
-                                                 {"type", "VEC3"},
-                                                 {"min", min},
-                                                 {"max", max}});
-    view =
-        buffers.add_view(0, normal_data.data(), normal_data.size() * sizeof(float), kArrayBuffer);
-    attributes["NORMAL"] = add_accessor(
-        json, {{"bufferView", view}, {"componentType", kFloat}, {"count", n}, {"type", "VEC3"}});
-    primitive["attributes"] = attributes;
-    std::vector<std::uint32_t> indices;
-    for (const auto& t : cluster.triangles) {
-        indices.push_back(t[0]);
-        indices.push_back(reverse ? t[2] : t[1]);
-        indices.push_back(reverse ? t[1] : t[2]);
-    }
-    if (n <= kMaxShortVertices) {
-        std::vector<std::uint16_t> shorts(indices.begin(), indices.end());
-        view = buffers.add_view(0, shorts.data(), shorts.size() * 2, kElementArrayBuffer);
-        primitive["indices"] = add_accessor(json, {{"bufferView", view},
-                                                   {"componentType", kUnsignedShort},
-                                                   {"count", shorts.size()},
-                                                   {"type", "SCALAR"}});
-    } else {
-        view = buffers.add_view(0, indices.data(), indices.size() * 4, kElementArrayBuffer);
-        primitive["indices"] = add_accessor(json, {{"bufferView", view},
-                                                   {"componentType", kUnsignedInt},
-                                                   {"count", indices.size()},
-                                                   {"type", "SCALAR"}});
-    }
-    primitive["material"] = material;
-    primitive["mode"] = 4;
-    return primitive;
-}
-
-/// Draco primitive of one chunk.
-Json draco_primitive(
-    Json& json, Buffers& buffers, std::size_t buffer, const Chunk& chunk, int material) {
-    const int view = buffers.add_view(buffer, chunk.bytes.data(), chunk.bytes.size(), 0);
-    Json min = Json::array(), max = Json::array();
-    for (int k = 0; k < 3; ++k) {
-        min.push_back(chunk.min[k]);
-        max.push_back(chunk.max[k]);
-    }
-    Json attributes;
-    attributes["POSITION"] = add_accessor(json, {{"componentType", kFloat},
-                                                 {"count", chunk.points},
-                                                 {"type", "VEC3"},
-                                                 {"min", min},
-                                                 {"max", max}});
-    attributes["NORMAL"] =
-        add_accessor(json, {{"componentType", kFloat}, {"count", chunk.points}, {"type", "VEC3"}});
-    attributes[kCoarse] =
-        add_accessor(json, {{"componentType", kFloat}, {"count", chunk.points}, {"type", "VEC3"}});
+    attributes[key(format::kPosition)] = add_accessor(json, {{"componentType", format::kFloat},
+                                                             {"count", base.points},
+                                                             {"type", "VEC3"},
+                                                             {"min", base.min},
+                                                             {"max", base.max}});
+    attributes[key(format::kNormal)] = add_accessor(
+        json, {{"componentType", format::kFloat}, {"count", base.points}, {"type", "VEC3"}});
+    attributes[key(format::kCluster)] = add_accessor(
+        json, {{"componentType", roots > 256 ? format::kUnsignedShort : format::kUnsignedByte},
+               {"count", base.points},
+               {"type", "SCALAR"}});
     Json primitive;
     primitive["attributes"] = attributes;
     primitive["indices"] = add_accessor(
-        json, {{"componentType", chunk.points <= kMaxShortVertices ? kUnsignedShort : kUnsignedInt},
-               {"count", 3 * std::size_t{chunk.faces}},
+        json, {{"componentType",
+                base.points <= kMaxShortVertices ? format::kUnsignedShort : format::kUnsignedInt},
+               {"count", 3 * std::size_t{base.faces}},
                {"type", "SCALAR"}});
     primitive["material"] = material;  // mode: TRIANGLES, the default, left out (JSON bytes)
-    primitive["extensions"][kDraco] = {{"bufferView", view},
-                                       {"attributes",
-                                        {{"POSITION", chunk.position_id},
-                                         {"NORMAL", chunk.normal_id},
-                                         {kCoarse, chunk.coarse_id}}}};
-    return primitive;
+    primitive["extensions"][key(format::kDraco)] = {
+        {"bufferView", view},
+        {"attributes",
+         {{key(format::kPosition), base.ids.position_id},
+          {key(format::kNormal), base.ids.normal_id},
+          {key(format::kCluster), base.ids.cluster_id}}}};
+    // unnamed: the node carries the object's name (JSON bytes)
+    return {{"primitives", Json::array({std::move(primitive)})}};
+}
+
+/// The DAG table of one model: spheres nested as written, chunk ranges from `chunk_offsets`.
+format::DagTable dag_table(const MultiresMesh& model,
+                           const StorageFrame& storage,
+                           const std::vector<std::uint32_t>& chunk_offsets,
+                           const std::vector<EncodedMesh>& chunks) {
+    format::DagTable table;
+    table.clusters = static_cast<std::uint32_t>(model.clusters.size());
+    std::vector<std::array<float, 4>> spheres(model.groups.size());
+    for (std::size_t g = 0; g < model.groups.size(); ++g) {
+        const MultiresGroup& group = model.groups[g];
+        std::vector<const std::array<float, 4>*> inside;
+        for (const std::uint32_t c : group.consumed) {
+            const std::int32_t below = model.clusters[c].producer;
+            if (below >= 0) {
+                inside.push_back(&spheres[std::size_t(below)]);
+            }
+        }
+        spheres[g] = scene_sphere(storage, group.bounds, inside);
+        format::DagGroup out;
+        out.sphere = spheres[g];
+        out.chunk_offset = chunk_offsets[g];
+        out.chunk_length = static_cast<std::uint32_t>(chunks[g].bytes.size());
+        out.level = static_cast<std::uint16_t>(group.level);
+        out.consumed = group.consumed;
+        out.produced = group.produced;
+        table.groups.push_back(std::move(out));
+    }
+    return table;
+}
+
+/// One object: its chunks, base and table into `buffer`, its node, mesh, material into `json`.
+void write_object(Json& json,
+                  BufferParts& buffer,
+                  ProgressiveStats& stats,
+                  const ProgressiveObject& object,
+                  const StorageFrame& storage,
+                  const SliceFrame& frame,
+                  const ProgressiveOptions& options) {
+    const MultiresMesh& model = *object.model;
+    const std::string name = object_name(object);
+    ObjectGrid grid;
+    grid.model = &model;
+    grid.step = model.grid_step;
+    grid.reverse = storage.flip_x < 0.0;
+    grid.points.resize(model.positions.size());
+    for (std::size_t v = 0; v < grid.points.size(); ++v) {
+        grid.points[v] =
+            grid_point(model.positions[v], grid.step, frame.slice_spacing_px, storage.flip_x).v;
+    }
+    std::vector<EncodedMesh> chunks(model.groups.size());
+    parallel_for(model.groups.size(), options.threads, [&](std::size_t g) {
+        chunks[g] = group_chunk(grid, g, options, "'" + name + "' group " + std::to_string(g));
+    });
+    const EncodedMesh base = base_mesh(grid, model.roots(), options, "'" + name + "' base mesh");
+
+    // chunks, parents first (coarse first), each 4-byte aligned in the object's chunks view
+    std::string chunk_bytes;
+    std::vector<std::uint32_t> chunk_offsets(model.groups.size());
+    for (std::size_t g = model.groups.size(); g-- > 0;) {
+        chunk_offsets[g] = static_cast<std::uint32_t>(chunk_bytes.size());
+        chunk_bytes += chunks[g].bytes;
+        chunk_bytes.resize((chunk_bytes.size() + 3) / 4 * 4, '\0');
+        stats.chunk_bytes += chunks[g].bytes.size();
+        ++stats.chunks;
+    }
+    const std::string table =
+        format::encode_dag_table(dag_table(model, storage, chunk_offsets, chunks));
+    stats.dag_bytes += table.size();
+    stats.groups += model.groups.size();
+    const int dag_view = buffer.add(false, table);
+    const int base_view = buffer.add(false, base.bytes);
+    const int chunks_view = buffer.add(true, chunk_bytes);
+
+    json["materials"].push_back(
+        {{"name", name},
+         {"pbrMetallicRoughness",
+          {{"baseColorFactor",
+            {short_decimal(detail::srgb_to_linear(object.srgb[0]), kColorDecimals),
+             short_decimal(detail::srgb_to_linear(object.srgb[1]), kColorDecimals),
+             short_decimal(detail::srgb_to_linear(object.srgb[2]), kColorDecimals), 1.0}},
+           {"metallicFactor", 0.0},
+           {"roughnessFactor", kRoughness}}}});
+    const int material = static_cast<int>(json["materials"].size() - 1);
+    json["meshes"].push_back(base_mesh_json(json, base, base_view, model.roots().size(), material));
+    Json errors = Json::array();
+    for (const MultiresGroup& group : model.groups) {
+        errors.push_back(
+            format::round_up_decimal(group.error_px * storage.error_m_per_px, kErrorDigits));
+    }
+    Json node;
+    node["name"] = name;
+    node["mesh"] = json["meshes"].size() - 1;
+    node["matrix"] = storage.matrix;
+    node["extensions"][key(format::kExtension)] = {
+        {"version", format::kVersion},
+        {"dag", dag_view},
+        {"chunks", chunks_view},
+        {"errors", std::move(errors)},
+        {"fullResolutionError",
+         format::round_up_decimal(model.full_resolution_error_px * storage.error_m_per_px,
+                                  kErrorDigits)},
+        {"gridStep", grid.step}};
+    node["extras"] = {{"label", object.label},
+                      {"volume_ml", short_decimal(object.volume_ml, kVolumeDecimals)}};
+    json["nodes"].push_back(std::move(node));
+    json["nodes"][0]["children"].push_back(json["nodes"].size() - 1);
+    ++stats.objects;
 }
 
 void check_object(const std::filesystem::path& path,
@@ -584,15 +634,15 @@ std::string glb_bytes(const std::filesystem::path& path,
             out.push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
         }
     };
-    u32(0x46546C67);  // "glTF"
+    u32(format::kGlbMagic);
     u32(2);
     u32(static_cast<std::uint32_t>(total));
     u32(static_cast<std::uint32_t>(padded_json.size()));
-    u32(0x4E4F534A);  // "JSON"
+    u32(format::kGlbJsonChunk);
     out += padded_json;
     if (!bin.empty()) {
         u32(static_cast<std::uint32_t>(bin.size()));
-        u32(0x004E4942);  // "BIN\0"
+        u32(format::kGlbBinChunk);
         out += bin;
     }
     return out;
@@ -606,7 +656,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
                                         const SceneInfo& info,
                                         const ProgressiveOptions& options) {
     detail::require_gltf_extension(path);
-    const std::string ext = lowercase_extension(path);
+    const bool single = lowercase_extension(path) == ".glb";
     if (objects.empty()) {
         fail(ErrorCode::InvalidInput, path, "no objects to write, expected at least one");
     }
@@ -617,13 +667,11 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
         check_object(path, objects[i], i);
     }
     const StorageFrame storage = storage_frame(path, frame);
-    const bool reverse = storage.flip_x < 0.0;
-    const bool single = ext == ".glb";
 
     Json json;
     json["asset"] = {{"generator", info.generator}, {"version", "2.0"}};
-    json["extensionsUsed"] = {kDraco, kExtension};
-    json["extensionsRequired"] = {kDraco};
+    json["extensionsUsed"] = {key(format::kDraco), key(format::kExtension)};
+    json["extensionsRequired"] = {key(format::kDraco)};
     json["scene"] = 0;
     json["scenes"] = Json::array();
     json["scenes"].push_back(Json{{"nodes", Json::array({0})}});
@@ -631,133 +679,23 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     json["meshes"] = Json::array();
     json["materials"] = Json::array();
     json["accessors"] = Json::array();
-    json["bufferViews"] = Json::array();
+    // what all objects share is said once, on the root node (JSON bytes)
     json["nodes"].push_back(
-        {{"name", "patient"}, {"matrix", detail::kPatientToGltf}, {"children", Json::array()}});
-    Buffers buffers(json);
+        {{"name", "patient"},
+         {"matrix", detail::kPatientToGltf},
+         {"children", Json::array()},
+         {"extras",
+          {{"source", info.source}, {"spacing_mm", info.spacing_mm}, {"error_unit", "m"}}}});
+    BufferParts buffer;
     ProgressiveStats stats;
-
     for (const ProgressiveObject& object : objects) {
-        const MultiresMesh& model = *object.model;
-        if (model.clusters.empty()) {
-            continue;
-        }
-        const std::string name = object_name(object);
-        const double step = model.grid_step;
-        std::vector<GridPoint> points(model.positions.size());
-        for (std::size_t v = 0; v < points.size(); ++v) {
-            points[v] =
-                grid_point(model.positions[v], step, frame.slice_spacing_px, storage.flip_x);
-        }
-        std::vector<std::array<float, 3>> storage_points(points.size());
-        std::transform(points.begin(), points.end(), storage_points.begin(),
-                       [](const GridPoint& p) { return p.v; });
-        const auto normals = progressive_cluster_normals(model, storage_points, reverse);
-
-        json["materials"].push_back(
-            {{"name", name},
-             {"pbrMetallicRoughness",
-              {{"baseColorFactor",
-                {detail::srgb_to_linear(object.srgb[0]), detail::srgb_to_linear(object.srgb[1]),
-                 detail::srgb_to_linear(object.srgb[2]), 1.0}},
-               {"metallicFactor", 0.0},
-               {"roughnessFactor", kRoughness}}}});
-        const int material = static_cast<int>(json["materials"].size() - 1);
-
-        // Chunks, encoded in parallel (each independent; written in cluster order).
-        std::vector<std::uint32_t> chunk_clusters;
-        for (std::uint32_t c = 0; c < model.clusters.size(); ++c) {
-            if (model.clusters[c].consumer >= 0) {
-                chunk_clusters.push_back(c);
+        if (!object.model->clusters.empty()) {
+            try {
+                write_object(json, buffer, stats, object, storage, frame, options);
+            } catch (const Error& e) {
+                fail(e.code(), path, e.what());
             }
         }
-        std::vector<Chunk> chunks(chunk_clusters.size());
-        parallel_for(chunk_clusters.size(), options.threads, [&](std::size_t i) {
-            const std::uint32_t c = chunk_clusters[i];
-            chunks[i] = encode_chunk(path, "'" + name + "' cluster " + std::to_string(c),
-                                     model.clusters[c], points, normals[c], reverse, step, options);
-        });
-
-        Json base;
-        base["name"] = name;
-        base["primitives"] = Json::array();
-        Json clusters = Json::array();
-        const int base_mesh = static_cast<int>(json["meshes"].size());
-        json["meshes"].push_back(Json());  // placeholder, filled after the chunks
-        std::size_t next_chunk = 0;
-        std::vector<SceneSphere> cluster_spheres(model.clusters.size());
-        for (std::uint32_t c = 0; c < model.clusters.size(); ++c) {
-            const MultiresCluster& cluster = model.clusters[c];
-            Json entry;
-            if (cluster.consumer < 0) {
-                entry["mesh"] = base_mesh;
-                entry["primitive"] = base["primitives"].size();
-                base["primitives"].push_back(
-                    base_primitive(json, buffers, cluster, points, normals[c], reverse, material));
-            } else {
-                const Chunk& chunk = chunks[next_chunk++];
-                entry["mesh"] = json["meshes"].size();
-                // unnamed: the extension's cluster entry names it (JSON bytes)
-                json["meshes"].push_back(
-                    {{"primitives", Json::array({draco_primitive(json, buffers, 1 + cluster.level,
-                                                                 chunk, material)})}});
-                stats.chunk_bytes += chunk.bytes.size();
-                ++stats.chunks;
-            }
-            entry["level"] = cluster.level;
-            if (cluster.producer >= 0) {
-                entry["producer"] = cluster.producer;
-            }
-            if (cluster.consumer >= 0) {
-                entry["consumer"] = cluster.consumer;
-            }
-            cluster_spheres[c] = scene_sphere(storage, cluster.bounds);
-            entry["sphere"] = cluster_spheres[c].json();
-            clusters.push_back(std::move(entry));
-        }
-        json["meshes"][base_mesh] = std::move(base);
-
-        // groups come after the groups below them: their written spheres nest in the written
-        // spheres of their clusters and of the groups below
-        Json groups = Json::array();
-        std::vector<SceneSphere> group_spheres(model.groups.size());
-        for (std::size_t g = 0; g < model.groups.size(); ++g) {
-            const MultiresGroup& group = model.groups[g];
-            std::vector<const SceneSphere*> inside;
-            for (const std::uint32_t c : group.produced) {
-                inside.push_back(&cluster_spheres[c]);
-            }
-            for (const std::uint32_t c : group.consumed) {
-                inside.push_back(&cluster_spheres[c]);
-                const std::int32_t below = model.clusters[c].producer;
-                if (below >= 0) {
-                    inside.push_back(&group_spheres[std::size_t(below)]);
-                }
-            }
-            group_spheres[g] = scene_sphere(storage, group.bounds, inside);
-            groups.push_back({{"level", group.level},
-                              {"error", short_bound(group.error_px * storage.error_m_per_px)},
-                              {"sphere", group_spheres[g].json()},
-                              {"consumed", group.consumed},
-                              {"produced", group.produced}});
-        }
-        Json node;
-        node["name"] = name;
-        node["mesh"] = base_mesh;
-        node["matrix"] = storage.matrix;
-        node["extensions"][kExtension] = {
-            {"clusters", std::move(clusters)},
-            {"groups", std::move(groups)},
-            {"fullResolutionError",
-             short_bound(model.full_resolution_error_px * storage.error_m_per_px)},
-            {"gridStep", step}};
-        node["extras"] = {{"label", object.label},
-                          {"source", info.source},
-                          {"spacing_mm", info.spacing_mm},
-                          {"volume_ml", object.volume_ml},
-                          {"error_unit", "m"}};
-        json["nodes"].push_back(std::move(node));
-        json["nodes"][0]["children"].push_back(json["nodes"].size() - 1);
     }
     if (json["nodes"][0]["children"].empty()) {
         fail(ErrorCode::InvalidInput, path,
@@ -765,49 +703,34 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
                  " objects, none with a triangle: nothing to write, expected at least one "
                  "non-empty object");
     }
-
-    // Buffers: .glb one (the BIN chunk); .gltf buffer 0 = <stem>.bin, others <stem>.level<L>.bin,
-    // renumbered so that levels without chunks leave no empty buffer.
+    json["bufferViews"] = Json::array();
+    for (const BufferParts::View& view : buffer.views) {
+        json["bufferViews"].push_back(
+            {{"buffer", 0},
+             {"byteOffset", (view.in_chunks ? buffer.prefix.size() : 0) + view.offset},
+             {"byteLength", view.length}});
+    }
+    const std::string data = buffer.prefix + buffer.chunks;
+    Json b = {{"byteLength", data.size()}};
+    const std::filesystem::path bin = path.parent_path() / (path.stem().string() + ".bin");
+    if (!single) {
+        b["uri"] = detail::uri_encode(bin.filename().string());
+    }
+    json["buffers"] = Json::array({std::move(b)});
+    const std::string text = json.dump();  // compact: the JSON is part of a first frame's bytes
+    stats.json_bytes = text.size();
     if (single) {
-        buffers.merge_into_first();
-    }
-    std::vector<std::string>& data = buffers.data();
-    std::vector<int> renumber(data.size(), -1);
-    json["buffers"] = Json::array();
-    std::vector<std::pair<std::filesystem::path, const std::string*>> files;
-    const std::string stem = path.stem().string();
-    for (std::size_t b = 0; b < data.size(); ++b) {
-        if (b > 0 && data[b].empty()) {
-            continue;
-        }
-        renumber[b] = static_cast<int>(json["buffers"].size());
-        Json buffer = {{"byteLength", data[b].size()}};
-        if (!single) {
-            const std::string file =
-                b == 0 ? stem + ".bin" : stem + ".level" + std::to_string(b - 1) + ".bin";
-            buffer["uri"] = detail::uri_encode(file);
-            files.emplace_back(path.parent_path() / file, &data[b]);
-        }
-        json["buffers"].push_back(std::move(buffer));
-    }
-    for (Json& view : json["bufferViews"]) {
-        view["buffer"] = renumber[view["buffer"].get<std::size_t>()];
-    }
-    const std::string text = json.dump();  // compact: the JSON is most of a first frame's bytes
-    if (single) {
-        const std::string bytes = glb_bytes(path, text, data[0]);
+        const std::string bytes = glb_bytes(path, text, data);
         write_file_atomically(path, bytes);
         stats.total_bytes = bytes.size();
+        stats.base_bytes = 12 + 8 + (text.size() + 3) / 4 * 4 + 8 + buffer.prefix.size();
     } else {
-        stats.total_bytes = text.size() + 1;
-        for (const auto& [file, bytes] : files) {
-            write_file_atomically(file, *bytes);
-            stats.files.push_back(file);
-            stats.total_bytes += bytes->size();
-        }
+        write_file_atomically(bin, data);
+        stats.files.push_back(bin);
         write_file_atomically(path, text + "\n");
+        stats.total_bytes = text.size() + 1 + data.size();
+        stats.base_bytes = text.size() + 1 + buffer.prefix.size();
     }
-    stats.base_bytes = stats.total_bytes - stats.chunk_bytes;
     stats.files.push_back(path);
     return stats;
 }

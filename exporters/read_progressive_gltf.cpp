@@ -1,7 +1,9 @@
-// Reader of strata's progressive glTF (schema/README.md): everything is validated before use, so
-// a corrupt or hostile file ends in Error{InvalidInput} naming what and where, never in a crash.
-// The JSON is parsed with nlohmann_json (bounded size), the GLB container (glTF 2.0 section 4.4)
-// by hand, the chunks with Draco's decoder.
+// Reader of strata's progressive glTF, STRATA_progressive_mesh version 2 (schema/README.md):
+// parse, check the graph, decode, each step complete before the next, so a corrupt or hostile
+// file ends in Error{InvalidInput} naming what and where before any large allocation, never in a
+// crash or another exception. The JSON is parsed with nlohmann_json (bounded size) and every field
+// is read through JsonReader, which checks its type; the GLB container (glTF 2.0 section 4.4) by
+// hand; the chunks with Draco's decoder (exporters/detail/draco_chunk.h).
 #include "exporters/read_progressive_gltf.h"
 
 #include <algorithm>
@@ -10,13 +12,13 @@
 #include <fstream>
 #include <limits>
 #include <map>
-#include <unordered_map>
 
-#include <draco/compression/decode.h>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "core/file_names.h"
+#include "exporters/detail/draco_chunk.h"
+#include "exporters/progressive_format.h"
 
 namespace strata {
 
@@ -26,58 +28,90 @@ using Json = nlohmann::json;
 
 constexpr std::uint64_t kMaxFileBytes = std::uint64_t{4} << 30;  // a GLB cannot be larger
 constexpr std::size_t kMaxJsonBytes = std::size_t{512} << 20;
-constexpr const char* kExtension = "STRATA_progressive_mesh";
-constexpr const char* kDraco = "KHR_draco_mesh_compression";
-constexpr const char* kCoarse = "_COARSE_POSITION";
 
-/// Messages name the file and a JSON pointer.
-class Reader {
+std::string key(std::string_view name) {
+    return std::string(name);
+}
+
+// ---- parse: JSON fields, type-checked -------------------------------------------------------
+
+/// Every JSON field is read through this: a wrong type, a missing required field or a value out
+/// of range is Error{InvalidInput} "<file>: <JSON pointer>: <what>, expected <what>".
+class JsonReader {
 public:
-    Reader(const std::string& name, const Json& json) : name_(name), json_(json) {}
+    JsonReader(const std::string& name, const Json& json) : name_(name), json_(json) {}
 
     [[noreturn]] void fail(const std::string& where, const std::string& what) const {
-        throw Error(ErrorCode::InvalidInput, name_ + ": " + where + ": " + what);
+        throw Error(ErrorCode::InvalidInput,
+                    name_ + ": " + (where.empty() ? "/" : where) + ": " + what);
     }
 
+    /// The member `key` of `parent` (an object), or nullptr.
+    static const Json* find(const Json& parent, const std::string& key) {
+        if (!parent.is_object()) {
+            return nullptr;
+        }
+        const auto it = parent.find(key);
+        return it == parent.end() ? nullptr : &*it;
+    }
+
+    const Json& required(const Json& parent,
+                         const std::string& key,
+                         const std::string& where,
+                         const char* expected) const {
+        const Json* v = find(parent, key);
+        if (v == nullptr) {
+            fail(where, "missing \"" + key + "\", expected " + expected);
+        }
+        return *v;
+    }
+
+    const Json& object(const Json& v, const std::string& where) const {
+        if (!v.is_object()) {
+            fail(where, std::string(type_of(v)) + ", expected an object");
+        }
+        return v;
+    }
+
+    const Json& object(const Json& parent, const std::string& key, const std::string& where) const {
+        return object(required(parent, key, where, "an object"), where + "/" + key);
+    }
+
+    /// An array member; absent optional arrays read as empty.
     const Json& array(const Json& parent,
                       const std::string& key,
                       const std::string& where,
-                      bool required = true) const {
+                      bool is_required = true) const {
         static const Json kEmpty = Json::array();
-        if (!parent.contains(key)) {
-            if (required) {
+        const Json* v = find(parent, key);
+        if (v == nullptr) {
+            if (is_required) {
                 fail(where, "missing \"" + key + "\", expected an array");
             }
             return kEmpty;
         }
-        const Json& a = parent[key];
-        if (!a.is_array()) {
-            fail(where + "/" + key, "expected an array");
+        if (!v->is_array()) {
+            fail(where + "/" + key, std::string(type_of(*v)) + ", expected an array");
         }
-        return a;
-    }
-
-    const Json& object(const Json& parent, const std::string& key, const std::string& where) const {
-        if (!parent.contains(key) || !parent[key].is_object()) {
-            fail(where + "/" + key, "missing or not an object");
-        }
-        return parent[key];
+        return *v;
     }
 
     /// A non-negative integer below `limit`.
-    std::uint64_t index(const Json& value,
+    std::uint64_t index(const Json& v,
                         const std::string& where,
                         std::uint64_t limit,
                         const std::string& what) const {
-        if (!value.is_number_integer() || value.get<std::int64_t>() < 0) {
-            fail(where, "expected a non-negative integer (" + what + ")");
+        if (!v.is_number_integer() ||
+            (v.is_number_integer() && !v.is_number_unsigned() && v.get<std::int64_t>() < 0)) {
+            fail(where,
+                 std::string(type_of(v)) + ", expected a non-negative integer (" + what + ")");
         }
-        const std::uint64_t v = value.get<std::uint64_t>();
-        if (v >= limit) {
-            fail(where, what + " " + std::to_string(v) + " out of range, expected < " +
+        const std::uint64_t x = v.get<std::uint64_t>();
+        if (x >= limit) {
+            fail(where, what + " " + std::to_string(x) + " out of range, expected < " +
                             std::to_string(limit));
         }
-        return v;
+        return x;
     }
 
     std::uint64_t index(const Json& parent,
@@ -85,68 +119,79 @@ public:
                         const std::string& where,
                         std::uint64_t limit,
                         const std::string& what) const {
-        if (!parent.contains(key)) {
-            fail(where, "missing \"" + key + "\" (" + what + ")");
+        return index(required(parent, key, where, "an integer"), where + "/" + key, limit, what);
+    }
+
+    /// An optional integer index with a default.
+    std::uint64_t index_or(const Json& parent,
+                           const std::string& key,
+                           const std::string& where,
+                           std::uint64_t limit,
+                           std::uint64_t fallback,
+                           const std::string& what) const {
+        const Json* v = find(parent, key);
+        return v == nullptr ? fallback : index(*v, where + "/" + key, limit, what);
+    }
+
+    double number(const Json& v, const std::string& where, double min) const {
+        if (!v.is_number()) {
+            fail(where, std::string(type_of(v)) + ", expected a number");
         }
-        return index(parent[key], where + "/" + key, limit, what);
+        const double x = v.get<double>();
+        if (!std::isfinite(x) || x < min) {
+            fail(where, "value " + std::to_string(x) +
+                            ", expected a finite number >= " + std::to_string(min));
+        }
+        return x;
     }
 
     double number(const Json& parent,
                   const std::string& key,
                   const std::string& where,
                   double min) const {
-        if (!parent.contains(key) || !parent[key].is_number()) {
-            fail(where + "/" + key, "missing or not a number");
-        }
-        const double v = parent[key].get<double>();
-        if (!std::isfinite(v) || v < min) {
-            fail(where + "/" + key, "value " + std::to_string(v) +
-                                        ", expected a finite number >= " + std::to_string(min));
-        }
-        return v;
+        return number(required(parent, key, where, "a number"), where + "/" + key, min);
     }
 
-    Sphere sphere(const Json& parent, const std::string& where) const {
-        if (!parent.contains("sphere") || !parent["sphere"].is_array() ||
-            parent["sphere"].size() != 4) {
-            fail(where + "/sphere", "expected [x, y, z, radius]");
+    /// An optional string member ("" when absent).
+    std::string string(const Json& parent, const std::string& key, const std::string& where) const {
+        const Json* v = find(parent, key);
+        if (v == nullptr) {
+            return {};
         }
-        std::array<double, 4> v{};
-        for (int i = 0; i < 4; ++i) {
-            const Json& x = parent["sphere"][i];
-            if (!x.is_number() || !std::isfinite(x.get<double>())) {
-                fail(where + "/sphere/" + std::to_string(i), "not a finite number");
-            }
-            v[i] = x.get<double>();
+        if (!v->is_string()) {
+            fail(where + "/" + key, std::string(type_of(*v)) + ", expected a string");
         }
-        if (v[3] < 0.0) {
-            fail(where + "/sphere/3", "negative radius");
-        }
-        return {{v[0], v[1], v[2]}, v[3]};
+        return v->get<std::string>();
     }
 
-    std::array<double, 16> matrix(const Json& node, const std::string& where) const {
-        std::array<double, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-        if (!node.contains("matrix")) {
-            return m;
+    /// An optional array of `n` finite numbers.
+    template <std::size_t N>
+    std::array<double, N> numbers(const Json& parent,
+                                  const std::string& key,
+                                  const std::string& where,
+                                  const std::array<double, N>& fallback) const {
+        const Json* v = find(parent, key);
+        if (v == nullptr) {
+            return fallback;
         }
-        const Json& a = node["matrix"];
-        if (!a.is_array() || a.size() != 16) {
-            fail(where + "/matrix", "expected 16 numbers");
+        if (!v->is_array() || v->size() != N) {
+            fail(where + "/" + key, std::string(type_of(*v)) + ", expected an array of " +
+                                        std::to_string(N) + " numbers");
         }
-        for (int i = 0; i < 16; ++i) {
-            if (!a[i].is_number() || !std::isfinite(a[i].get<double>())) {
-                fail(where + "/matrix/" + std::to_string(i), "not a finite number");
-            }
-            m[i] = a[i].get<double>();
+        std::array<double, N> out{};
+        for (std::size_t i = 0; i < N; ++i) {
+            out[i] = number((*v)[i], where + "/" + key + "/" + std::to_string(i),
+                            -std::numeric_limits<double>::max());
         }
-        return m;
+        return out;
     }
 
     const Json& json() const { return json_; }
     const std::string& name() const { return name_; }
 
 private:
+    static const char* type_of(const Json& v) { return v.type_name(); }
+
     std::string name_;
     const Json& json_;
 };
@@ -154,7 +199,7 @@ private:
 std::uint32_t le32(std::string_view bytes, std::size_t at) {
     std::uint32_t v = 0;
     for (int i = 3; i >= 0; --i) {
-        v = (v << 8) | static_cast<unsigned char>(bytes[at + i]);
+        v = (v << 8) | static_cast<unsigned char>(bytes[at + static_cast<std::size_t>(i)]);
     }
     return v;
 }
@@ -173,6 +218,8 @@ std::array<double, 16> multiply(const std::array<double, 16>& a, const std::arra
     return m;
 }
 
+constexpr std::array<double, 16> kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
 /// Buffers and views, validated once.
 struct Data {
     std::vector<std::string> buffers;
@@ -187,32 +234,25 @@ struct Data {
     }
 };
 
-Data load_data(const Reader& r,
+Data load_data(const JsonReader& r,
                std::string_view glb_bin,
                bool is_glb,
                const std::function<std::string(const std::string&)>& load_buffer) {
-    const Json& json = r.json();
     Data data;
-    const Json& buffers = r.array(json, "buffers", "", false);
+    const Json& buffers = r.array(r.json(), "buffers", "", false);
     for (std::size_t b = 0; b < buffers.size(); ++b) {
         const std::string where = "/buffers/" + std::to_string(b);
-        const Json& buffer = buffers[b];
-        if (!buffer.is_object()) {
-            r.fail(where, "expected an object");
-        }
+        const Json& buffer = r.object(buffers[b], where);
         const std::uint64_t length =
             r.index(buffer, "byteLength", where, kMaxFileBytes + 1, "byte length");
         std::string bytes;
-        if (!buffer.contains("uri")) {
+        if (JsonReader::find(buffer, "uri") == nullptr) {
             if (!is_glb || b != 0) {
                 r.fail(where, "no \"uri\": only the first buffer of a .glb may use its BIN chunk");
             }
             bytes.assign(glb_bin);
         } else {
-            if (!buffer["uri"].is_string()) {
-                r.fail(where + "/uri", "expected a string");
-            }
-            bytes = load_buffer(buffer["uri"].get<std::string>());
+            bytes = load_buffer(r.string(buffer, "uri", where));
         }
         if (bytes.size() < length) {
             r.fail(where, "byteLength " + std::to_string(length) + " but only " +
@@ -221,22 +261,17 @@ Data load_data(const Reader& r,
         bytes.resize(length);
         data.buffers.push_back(std::move(bytes));
     }
-    const Json& views = r.array(json, "bufferViews", "", false);
+    const Json& views = r.array(r.json(), "bufferViews", "", false);
     for (std::size_t v = 0; v < views.size(); ++v) {
         const std::string where = "/bufferViews/" + std::to_string(v);
-        const Json& view = views[v];
-        if (!view.is_object()) {
-            r.fail(where, "expected an object");
-        }
+        const Json& view = r.object(views[v], where);
         const std::size_t buffer = r.index(view, "buffer", where, data.buffers.size(), "buffer");
         const std::uint64_t size = data.buffers[buffer].size();
         const std::uint64_t offset =
-            view.contains("byteOffset")
-                ? r.index(view["byteOffset"], where + "/byteOffset", size + 1, "byte offset")
-                : 0;
+            r.index_or(view, "byteOffset", where, size + 1, 0, "byte offset");
         const std::uint64_t length =
             r.index(view, "byteLength", where, size - offset + 1, "byte length");
-        if (view.contains("byteStride")) {
+        if (JsonReader::find(view, "byteStride") != nullptr) {
             r.fail(where + "/byteStride", "interleaved data is not used by this format");
         }
         data.views.push_back(
@@ -245,474 +280,433 @@ Data load_data(const Reader& r,
     return data;
 }
 
-/// An accessor's description, checked.
-struct Accessor {
-    int component_type = 0;
-    std::size_t components = 0;
-    std::size_t count = 0;
-    std::int64_t view = -1;
-    std::size_t offset = 0;
-};
-
-Accessor accessor(
-    const Reader& r, const Data& data, const Json& ref, const std::string& where, bool draco) {
+/// A Draco primitive's accessor (no bufferView), checked: component type, type, count.
+std::size_t draco_accessor(const JsonReader& r,
+                           const Json& attributes,
+                           const std::string& name,
+                           const std::string& where,
+                           const std::vector<int>& component_types,
+                           const char* type) {
     const Json& accessors = r.array(r.json(), "accessors", "");
-    const std::size_t a = r.index(ref, where, accessors.size(), "accessor");
+    const std::size_t a = r.index(attributes, name, where, accessors.size(), "accessor");
     const std::string at = "/accessors/" + std::to_string(a);
-    const Json& j = accessors[a];
-    if (!j.is_object()) {
-        r.fail(at, "expected an object");
+    const Json& j = r.object(accessors[a], at);
+    const int component =
+        static_cast<int>(r.index(j, "componentType", at, 1u << 16, "component type"));
+    if (std::find(component_types.begin(), component_types.end(), component) ==
+        component_types.end()) {
+        r.fail(at + "/componentType", std::to_string(component) + ", not allowed for " + name);
     }
-    Accessor out;
-    if (!j.contains("componentType") || !j["componentType"].is_number_integer()) {
-        r.fail(at, "missing componentType");
+    if (r.string(j, "type", at) != type) {
+        r.fail(at + "/type", "\"" + r.string(j, "type", at) + "\", expected \"" + type + "\"");
     }
-    out.component_type = j["componentType"].get<int>();
-    if (!j.contains("type") || !j["type"].is_string()) {
-        r.fail(at, "missing type");
+    const Json* normalized = JsonReader::find(j, "normalized");
+    if (normalized != nullptr && !normalized->is_boolean()) {
+        r.fail(at + "/normalized", std::string(normalized->type_name()) + ", expected a boolean");
     }
-    const std::string type = j["type"].get<std::string>();
-    out.components = type == "SCALAR" ? 1 : type == "VEC3" ? 3 : 0;
-    if (out.components == 0) {
-        r.fail(at + "/type", "\"" + type + "\", expected SCALAR or VEC3");
+    if ((normalized != nullptr && normalized->get<bool>()) ||
+        JsonReader::find(j, "sparse") != nullptr || JsonReader::find(j, "bufferView") != nullptr) {
+        r.fail(at, "a Draco primitive's accessor has no bufferView, is not sparse nor normalized");
     }
-    out.count = r.index(j, "count", at, std::uint64_t{1} << 32, "count");
-    if (j.value("normalized", false) || j.contains("sparse")) {
-        r.fail(at, "normalized or sparse accessors are not used by this format");
-    }
-    if (draco) {
-        if (j.contains("bufferView")) {
-            r.fail(at, "an accessor of a Draco primitive must not have a bufferView");
-        }
-        return out;
-    }
-    out.view = static_cast<std::int64_t>(r.index(j, "bufferView", at, data.views.size(), "view"));
-    out.offset = j.contains("byteOffset") ? r.index(j["byteOffset"], at + "/byteOffset",
-                                                    std::uint64_t{1} << 40, "offset")
-                                          : 0;
-    const std::size_t size = out.component_type == 5126 || out.component_type == 5125 ? 4
-                             : out.component_type == 5123                             ? 2
-                                                                                      : 0;
-    if (size == 0) {
-        r.fail(at + "/componentType",
-               std::to_string(out.component_type) + ", expected 5123, 5125 or 5126");
-    }
-    const std::uint64_t need = std::uint64_t{out.count} * out.components * size;
-    const std::size_t available = data.views[out.view].length;
-    if (out.offset > available || need > available - out.offset) {
-        r.fail(at, std::to_string(need) + " bytes from offset " + std::to_string(out.offset) +
-                       " do not fit buffer view " + std::to_string(out.view) + " of " +
-                       std::to_string(available) + " bytes");
-    }
-    if (out.offset % size != 0 || data.views[out.view].offset % size != 0) {
-        r.fail(at, "data not aligned to its component size");
-    }
-    return out;
+    return r.index(j, "count", at, std::uint64_t{1} << 32, "count");
 }
 
-std::vector<float> floats(const Data& data, const Accessor& a) {
-    std::vector<float> out(a.count * a.components);
-    std::memcpy(out.data(), data.view(a.view).data() + a.offset, out.size() * sizeof(float));
-    return out;
-}
-
-std::vector<std::uint32_t> indices(const Reader& r,
-                                   const Data& data,
-                                   const Accessor& a,
-                                   const std::string& where) {
-    std::vector<std::uint32_t> out(a.count);
-    const char* p = data.view(a.view).data() + a.offset;
-    if (a.component_type == 5125) {
-        std::memcpy(out.data(), p, out.size() * 4);
-    } else if (a.component_type == 5123) {
-        for (std::size_t i = 0; i < out.size(); ++i) {
-            std::uint16_t v = 0;
-            std::memcpy(&v, p + 2 * i, 2);
-            out[i] = v;
-        }
-    } else {
-        r.fail(where, "indices must be unsigned short or unsigned int");
-    }
-    return out;
-}
-
-/// Positions, triangles and coarse positions of one cluster as stored.
-struct RawCluster {
-    std::vector<std::array<float, 3>> positions;
-    std::vector<std::array<std::uint32_t, 3>> triangles;
-    std::vector<std::array<float, 3>> coarse;  ///< empty for roots
-    std::size_t bytes = 0;                     ///< stored bytes (accessor data or Draco blob)
+/// The base mesh: one Draco primitive, as parsed (decoded later).
+struct ParsedBase {
+    std::string_view bytes;
+    detail::DracoAttributeIds ids;
+    std::size_t points = 0;   ///< the accessors' count
+    std::size_t indices = 0;  ///< the indices accessor's count
+    std::array<double, 4> color{1, 1, 1, 1};
 };
 
-RawCluster plain_primitive(const Reader& r,
-                           const Data& data,
-                           const Json& primitive,
-                           const std::string& where) {
-    RawCluster out;
-    const Json& attributes = r.object(primitive, "attributes", where);
-    const Accessor pa =
-        accessor(r, data, attributes.contains("POSITION") ? attributes["POSITION"] : Json(),
-                 where + "/attributes/POSITION", false);
-    if (pa.component_type != 5126 || pa.components != 3) {
-        r.fail(where + "/attributes/POSITION", "expected float VEC3");
+ParsedBase parse_base(const JsonReader& r, const Data& data, std::size_t mesh) {
+    const std::string where = "/meshes/" + std::to_string(mesh);
+    const Json& meshes = r.array(r.json(), "meshes", "");
+    const Json& primitives = r.array(r.object(meshes[mesh], where), "primitives", where);
+    if (primitives.size() != 1) {
+        r.fail(where + "/primitives",
+               std::to_string(primitives.size()) + " primitives, expected 1 (the base mesh)");
     }
-    const std::vector<float> p = floats(data, pa);
-    for (std::size_t i = 0; i < pa.count; ++i) {
-        out.positions.push_back({p[3 * i], p[3 * i + 1], p[3 * i + 2]});
+    const std::string pw = where + "/primitives/0";
+    const Json& primitive = r.object(primitives[0], pw);
+    if (r.index_or(primitive, "mode", pw, 7, format::kTriangles, "mode") != format::kTriangles) {
+        r.fail(pw + "/mode", "expected TRIANGLES (4)");
     }
-    if (!primitive.contains("indices")) {
-        r.fail(where, "missing \"indices\"");
-    }
-    const Accessor ia = accessor(r, data, primitive["indices"], where + "/indices", false);
-    if (ia.components != 1 || ia.count % 3 != 0) {
-        r.fail(where + "/indices", "expected SCALAR indices, a multiple of 3");
-    }
-    const std::vector<std::uint32_t> idx = indices(r, data, ia, where + "/indices");
-    out.bytes = data.views[pa.view].length + data.views[ia.view].length;
-    if (attributes.contains("NORMAL")) {
-        const Accessor na =
-            accessor(r, data, attributes["NORMAL"], where + "/attributes/NORMAL", false);
-        if (na.count != pa.count || na.components != 3 || na.component_type != 5126) {
-            r.fail(where + "/attributes/NORMAL", "expected float VEC3, one per position");
-        }
-        out.bytes += data.views[na.view].length;
-    }
-    for (std::size_t i = 0; i < idx.size(); i += 3) {
-        out.triangles.push_back({idx[i], idx[i + 1], idx[i + 2]});
-    }
-    return out;
-}
-
-RawCluster draco_primitive(const Reader& r,
-                           const Data& data,
-                           const Json& primitive,
-                           const std::string& where) {
-    RawCluster out;
+    const std::string at = pw + "/extensions/" + key(format::kDraco);
     const Json& ext =
-        r.object(r.object(primitive, "extensions", where), kDraco, where + "/extensions");
-    const std::string at = where + "/extensions/" + kDraco;
-    const std::size_t view = r.index(ext, "bufferView", at, data.views.size(), "buffer view");
+        r.object(r.object(primitive, "extensions", pw), key(format::kDraco), pw + "/extensions");
+    ParsedBase base;
+    base.bytes = data.view(r.index(ext, "bufferView", at, data.views.size(), "buffer view"));
     const Json& ids = r.object(ext, "attributes", at);
-    const Json& attributes = r.object(primitive, "attributes", where);
-    for (const char* name : {"POSITION", kCoarse}) {
-        if (!ids.contains(name) || !attributes.contains(name)) {
-            r.fail(at, std::string("attribute ") + name + " missing");
-        }
-    }
-    const Accessor pa =
-        accessor(r, data, attributes["POSITION"], where + "/attributes/POSITION", true);
-    const Accessor ca =
-        accessor(r, data, attributes[kCoarse], where + "/attributes/" + kCoarse, true);
-    if (!primitive.contains("indices")) {
-        r.fail(where, "missing \"indices\"");
-    }
-    const Accessor ia = accessor(r, data, primitive["indices"], where + "/indices", true);
-
-    const std::string_view bytes = data.view(view);
-    out.bytes = bytes.size();
-    draco::DecoderBuffer in;
-    in.Init(bytes.data(), bytes.size());
-    draco::Decoder decoder;
-    auto decoded = decoder.DecodeMeshFromBuffer(&in);
-    if (!decoded.ok()) {
-        r.fail(at, "Draco cannot decode buffer view " + std::to_string(view) + ": " +
-                       decoded.status().error_msg());
-    }
-    const std::unique_ptr<draco::Mesh> mesh = std::move(decoded).value();
-    const auto attribute = [&](const char* name, const Accessor& a) {
-        const Json& id = ids[name];
-        if (!id.is_number_integer()) {
-            r.fail(at + "/attributes/" + name, "expected an integer id");
-        }
-        const draco::PointAttribute* decoded_attribute =
-            mesh->GetAttributeByUniqueId(static_cast<std::uint32_t>(id.get<std::int64_t>()));
-        if (decoded_attribute == nullptr || decoded_attribute->num_components() != 3) {
-            r.fail(at + "/attributes/" + name, "no 3-component attribute with that id");
-        }
-        if (a.count != mesh->num_points() || a.components != 3 || a.component_type != 5126) {
-            r.fail(where + "/attributes/" + name, "accessor says " + std::to_string(a.count) +
-                                                      " points, Draco decoded " +
-                                                      std::to_string(mesh->num_points()));
-        }
-        std::vector<std::array<float, 3>> values(mesh->num_points());
-        for (std::uint32_t i = 0; i < mesh->num_points(); ++i) {
-            if (!decoded_attribute->ConvertValue<float, 3>(
-                    decoded_attribute->mapped_index(draco::PointIndex(i)), values[i].data())) {
-                r.fail(at, std::string("cannot read ") + name);
-            }
-        }
-        return values;
+    const Json& attributes = r.object(primitive, "attributes", pw);
+    const auto id = [&](std::string_view name) {
+        return static_cast<int>(r.index(ids, key(name), at + "/attributes", 1u << 16, "Draco id"));
     };
-    out.positions = attribute("POSITION", pa);
-    out.coarse = attribute(kCoarse, ca);
-    if (ia.count != 3 * std::size_t{mesh->num_faces()} || ia.components != 1) {
-        r.fail(where + "/indices", "accessor says " + std::to_string(ia.count) +
-                                       " indices, Draco decoded " +
-                                       std::to_string(mesh->num_faces()) + " triangles");
+    base.ids = {id(format::kPosition), id(format::kCluster), -1, id(format::kNormal)};
+    const std::string aw = pw + "/attributes";
+    base.points =
+        draco_accessor(r, attributes, key(format::kPosition), aw, {format::kFloat}, "VEC3");
+    if (draco_accessor(r, attributes, key(format::kNormal), aw, {format::kFloat}, "VEC3") !=
+            base.points ||
+        draco_accessor(r, attributes, key(format::kCluster), aw,
+                       {format::kUnsignedByte, format::kUnsignedShort}, "SCALAR") != base.points) {
+        r.fail(aw, "the attributes' accessors disagree on the number of points");
     }
-    for (draco::FaceIndex f(0); f < mesh->num_faces(); ++f) {
-        const auto& face = mesh->face(f);
-        out.triangles.push_back({face[0].value(), face[1].value(), face[2].value()});
+    base.indices = draco_accessor(r, primitive, "indices", pw,
+                                  {format::kUnsignedShort, format::kUnsignedInt}, "SCALAR");
+    if (JsonReader::find(primitive, "material") != nullptr) {
+        const Json& materials = r.array(r.json(), "materials", "");
+        const std::size_t m = r.index(primitive, "material", pw, materials.size(), "material");
+        const std::string mw = "/materials/" + std::to_string(m);
+        const Json& material = r.object(materials[m], mw);
+        if (JsonReader::find(material, "pbrMetallicRoughness") != nullptr) {
+            const Json& pbr = r.object(material, "pbrMetallicRoughness", mw);
+            base.color =
+                r.numbers<4>(pbr, "baseColorFactor", mw + "/pbrMetallicRoughness", base.color);
+        }
     }
-    return out;
+    return base;
 }
 
-/// One object node: the extension's DAG checked, clusters decoded and merged into one model.
-ProgressiveFileObject read_object(const Reader& r,
-                                  const Data& data,
-                                  std::size_t n,
-                                  const std::array<double, 16>& patient) {
-    const Json& json = r.json();
+/// One object node, parsed: everything the graph check and the decoder need.
+struct ParsedObject {
+    std::string where;          ///< the extension's JSON pointer
+    ProgressiveFileObject out;  ///< name, label, matrices, colour; model filled by decode
+    std::vector<double> errors;
+    double full_resolution_error = 0.0;
+    double grid_step = 0.0;
+    format::DagTable table;
+    std::string_view chunks;
+    ParsedBase base;
+};
+
+ParsedObject parse_object(const JsonReader& r,
+                          const Data& data,
+                          std::size_t n,
+                          const std::array<double, 16>& patient) {
+    const Json& nodes = r.array(r.json(), "nodes", "");
     const std::string where = "/nodes/" + std::to_string(n);
-    const Json& node = json["nodes"][n];
-    const std::string at = where + "/extensions/" + kExtension;
-    const Json& ext = node["extensions"][kExtension];
-    if (!ext.is_object()) {
-        r.fail(at, "expected an object");
+    const Json& node = r.object(nodes[n], where);
+    ParsedObject p;
+    p.where = where + "/extensions/" + key(format::kExtension);
+    const Json& ext = r.object(r.object(node, "extensions", where), key(format::kExtension),
+                               where + "/extensions");
+    const Json* version = JsonReader::find(ext, "version");
+    if (version == nullptr || !version->is_number_integer() ||
+        version->get<std::int64_t>() != format::kVersion) {
+        throw Error(ErrorCode::Unsupported,
+                    r.name() + ": " + p.where +
+                        "/version: not 2 (a version 1 file or newer): rebuild it with this strata");
     }
-    ProgressiveFileObject object;
-    object.name = node.value("name", std::string());
-    if (node.contains("extras") && node["extras"].is_object() && node["extras"].contains("label") &&
-        node["extras"]["label"].is_number_integer()) {
-        object.label = node["extras"]["label"].get<std::int64_t>();
+    p.out.name = r.string(node, "name", where);
+    const Json* extras = JsonReader::find(node, "extras");
+    if (extras != nullptr && extras->is_object()) {
+        const Json* label = JsonReader::find(*extras, "label");
+        if (label != nullptr) {
+            p.out.label = static_cast<std::int64_t>(
+                r.index(*label, where + "/extras/label", std::uint64_t{1} << 32, "label"));
+        }
     }
-    object.to_patient = r.matrix(node, where);
-    object.to_scene = multiply(patient, object.to_patient);
-    MultiresMesh& model = object.model;
-    model.full_resolution_error_px = r.number(ext, "fullResolutionError", at, 0.0);
-    model.grid_step = r.number(ext, "gridStep", at, 0.0);
-    if (!(model.grid_step > 0.0)) {
-        r.fail(at + "/gridStep", "expected a positive number");
+    p.out.to_patient = r.numbers<16>(node, "matrix", where, kIdentity);
+    p.out.to_scene = multiply(patient, p.out.to_patient);
+    p.full_resolution_error = r.number(ext, "fullResolutionError", p.where, 0.0);
+    p.grid_step = r.number(ext, "gridStep", p.where, 0.0);
+    if (!(p.grid_step > 0.0)) {
+        r.fail(p.where + "/gridStep", "0, expected a positive number");
     }
-    const Json& meshes = r.array(json, "meshes", "");
-    const std::size_t base_mesh = r.index(node, "mesh", where, meshes.size(), "mesh");
+    const Json& errors = r.array(ext, "errors", p.where);
+    for (std::size_t g = 0; g < errors.size(); ++g) {
+        p.errors.push_back(r.number(errors[g], p.where + "/errors/" + std::to_string(g), 0.0));
+    }
+    const std::size_t dag = r.index(ext, "dag", p.where, data.views.size(), "buffer view");
+    p.table = format::parse_dag_table(
+        data.view(dag), errors.size(),
+        r.name() + ": " + p.where + "/dag (buffer view " + std::to_string(dag) + ")");
+    p.out.dag_bytes = data.views[dag].length;
+    p.chunks = data.view(r.index(ext, "chunks", p.where, data.views.size(), "buffer view"));
+    const Json& meshes = r.array(r.json(), "meshes", "");
+    p.base = parse_base(r, data, r.index(node, "mesh", where, meshes.size(), "mesh"));
+    p.out.base_bytes = p.base.bytes.size();
+    p.out.base_color = p.base.color;
+    return p;
+}
 
-    const Json& groups = r.array(ext, "groups", at);
-    const Json& clusters = r.array(ext, "clusters", at);
-    if (clusters.empty()) {
-        r.fail(at + "/clusters", "no clusters");
-    }
-    model.clusters.resize(clusters.size());
-    model.groups.resize(groups.size());
-    for (std::size_t g = 0; g < groups.size(); ++g) {
-        const std::string gw = at + "/groups/" + std::to_string(g);
-        const Json& group = groups[g];
-        if (!group.is_object()) {
-            r.fail(gw, "expected an object");
-        }
-        MultiresGroup& out = model.groups[g];
-        out.level = static_cast<std::uint32_t>(r.index(group, "level", gw, 1u << 16, "level"));
-        if (out.level == 0) {
-            r.fail(gw + "/level", "a group's level is at least 1");
-        }
-        out.error_px = r.number(group, "error", gw, 0.0);
-        out.bounds = r.sphere(group, gw);
-        for (const char* list : {"consumed", "produced"}) {
-            const Json& ids = r.array(group, list, gw);
-            if (ids.empty()) {
-                r.fail(gw + "/" + list, "empty");
-            }
-            auto& target = std::string(list) == "consumed" ? out.consumed : out.produced;
-            for (std::size_t i = 0; i < ids.size(); ++i) {
-                target.push_back(static_cast<std::uint32_t>(
-                    r.index(ids[i], gw + "/" + list + "/" + std::to_string(i), clusters.size(),
-                            "cluster")));
-            }
-        }
-    }
-    std::size_t root_primitives = 0;
-    object.level_bytes.clear();
-    std::vector<RawCluster> raw(clusters.size());
-    for (std::size_t c = 0; c < clusters.size(); ++c) {
-        const std::string cw = at + "/clusters/" + std::to_string(c);
-        const Json& cluster = clusters[c];
-        if (!cluster.is_object()) {
-            r.fail(cw, "expected an object");
-        }
-        MultiresCluster& out = model.clusters[c];
-        out.level = static_cast<std::uint32_t>(r.index(cluster, "level", cw, 1u << 16, "level"));
-        out.producer = cluster.contains("producer")
-                           ? static_cast<std::int32_t>(r.index(
-                                 cluster["producer"], cw + "/producer", groups.size(), "group"))
-                           : -1;
-        out.consumer = cluster.contains("consumer")
-                           ? static_cast<std::int32_t>(r.index(
-                                 cluster["consumer"], cw + "/consumer", groups.size(), "group"))
-                           : -1;
-        out.bounds = r.sphere(cluster, cw);
-        const std::size_t mesh = r.index(cluster, "mesh", cw, meshes.size(), "mesh");
-        const Json& primitives =
-            r.array(meshes[mesh], "primitives", "/meshes/" + std::to_string(mesh));
-        const std::size_t p =
-            cluster.contains("primitive")
-                ? r.index(cluster["primitive"], cw + "/primitive", primitives.size(), "primitive")
-                : r.index(Json(0), cw + "/primitive", primitives.size(), "primitive");
-        const std::string pw =
-            "/meshes/" + std::to_string(mesh) + "/primitives/" + std::to_string(p);
-        const Json& primitive = primitives[p];
-        if (!primitive.is_object()) {
-            r.fail(pw, "expected an object");
-        }
-        if (primitive.value("mode", 4) != 4) {
-            r.fail(pw + "/mode", "expected TRIANGLES (4)");
-        }
-        if (out.consumer < 0) {
-            if (mesh != base_mesh) {
-                r.fail(cw + "/mesh", "a root cluster must be a primitive of the node's mesh " +
-                                         std::to_string(base_mesh));
-            }
-            ++root_primitives;
-            raw[c] = plain_primitive(r, data, primitive, pw);
-            object.base_bytes += raw[c].bytes;
-        } else {
-            if (mesh == base_mesh || primitives.size() != 1) {
-                r.fail(cw + "/mesh",
-                       "a refinement cluster needs a mesh of its own with one Draco primitive");
-            }
-            raw[c] = draco_primitive(r, data, primitive, pw);
-            if (object.level_bytes.size() <= out.level) {
-                object.level_bytes.resize(out.level + 1, 0);
-            }
-            object.level_bytes[out.level] += raw[c].bytes;
-        }
-    }
-    const Json& base_primitives = r.array(meshes[base_mesh], "primitives", "");
-    if (!base_primitives.empty() && base_primitives[0].contains("material")) {
-        const Json& materials = r.array(json, "materials", "");
-        const std::size_t m =
-            r.index(base_primitives[0]["material"],
-                    "/meshes/" + std::to_string(base_mesh) + "/primitives/0/material",
-                    materials.size(), "material");
-        const Json& pbr = materials[m].value("pbrMetallicRoughness", Json::object());
-        const Json color = pbr.value("baseColorFactor", Json::array({1, 1, 1, 1}));
-        for (int i = 0; i < 4 && color.is_array() && color.size() == 4; ++i) {
-            if (color[i].is_number()) {
-                object.base_color[i] = color[i].get<double>();
-            }
-        }
-    }
-    if (root_primitives != base_primitives.size()) {
-        r.fail(where + "/mesh", "the base mesh has primitives that are not root clusters");
-    }
+// ---- check the graph (before any decode) ----------------------------------------------------
 
-    // The DAG: links both ways agree, children first (acyclic), levels and errors monotone.
-    std::vector<int> consumed_by(clusters.size(), -1), produced_by(clusters.size(), -1);
-    for (std::size_t g = 0; g < model.groups.size(); ++g) {
-        const std::string gw = at + "/groups/" + std::to_string(g);
-        MultiresGroup& group = model.groups[g];
+/// What the cluster lists imply per cluster.
+struct Graph {
+    std::vector<std::int32_t> producer, consumer;
+    std::vector<std::uint32_t> level;
+    std::vector<std::uint32_t> roots;  ///< increasing
+};
+
+Graph check_graph(const JsonReader& r, const ParsedObject& p) {
+    const auto fail = [&](const std::string& what) { r.fail(p.where + "/dag", what); };
+    const format::DagTable& t = p.table;
+    Graph graph;
+    graph.producer.assign(t.clusters, -1);
+    graph.consumer.assign(t.clusters, -1);
+    graph.level.assign(t.clusters, 0);
+    for (std::size_t g = 0; g < t.groups.size(); ++g) {
+        const format::DagGroup& group = t.groups[g];
+        const std::string gs = "group " + std::to_string(g);
         for (const std::uint32_t c : group.consumed) {
-            if (consumed_by[c] >= 0 || model.clusters[c].consumer != static_cast<int>(g)) {
-                r.fail(gw + "/consumed", "cluster " + std::to_string(c) +
-                                             " is consumed twice or its \"consumer\" is not " +
-                                             std::to_string(g));
+            if (graph.consumer[c] >= 0) {
+                fail(gs + " consumes cluster " + std::to_string(c) + ", consumed by group " +
+                     std::to_string(graph.consumer[c]) + " already");
             }
-            consumed_by[c] = static_cast<int>(g);
-            const int producer = model.clusters[c].producer;
-            if (producer >= static_cast<int>(g)) {
-                r.fail(gw + "/consumed",
-                       "cluster " + std::to_string(c) + " is made by group " +
-                           std::to_string(producer) +
-                           ", not listed before: groups must come children first");
+            graph.consumer[c] = static_cast<std::int32_t>(g);
+            // groups come children first: a cluster produced later is caught there
+            const std::int32_t below = graph.producer[c];
+            if (graph.level[c] >= group.level) {
+                fail(gs + " (level " + std::to_string(group.level) + ") consumes cluster " +
+                     std::to_string(c) + " of level " + std::to_string(graph.level[c]) +
+                     ", expected a lower level");
             }
-            const double below =
-                producer < 0 ? model.full_resolution_error_px : model.groups[producer].error_px;
-            if (group.error_px < below) {
-                r.fail(gw + "/error", "error " + std::to_string(group.error_px) +
-                                          " below the error " + std::to_string(below) +
-                                          " of what it replaces: errors must be monotone");
+            const double under = below < 0 ? p.full_resolution_error : p.errors[std::size_t(below)];
+            if (!(p.errors[g] >= under)) {
+                r.fail(p.where + "/errors/" + std::to_string(g),
+                       "error " + std::to_string(p.errors[g]) + " below the error " +
+                           std::to_string(under) + " of what it replaces: errors must be monotone");
             }
-            if (model.clusters[c].level >= group.level) {
-                r.fail(gw, "consumes cluster " + std::to_string(c) + " of level " +
-                               std::to_string(model.clusters[c].level) + ", not below its own");
+            if (below >= 0) {
+                const auto& a = group.sphere;
+                const auto& b = t.groups[std::size_t(below)].sphere;
+                const double d =
+                    std::hypot(double(a[0]) - b[0], double(a[1]) - b[1], double(a[2]) - b[2]);
+                if (d + b[3] > a[3] * (1.0 + 1e-6) + 1e-9) {
+                    fail(gs + "'s sphere does not contain the sphere of group " +
+                         std::to_string(below) + " below it");
+                }
             }
         }
         for (const std::uint32_t c : group.produced) {
-            if (produced_by[c] >= 0 || model.clusters[c].producer != static_cast<int>(g)) {
-                r.fail(gw + "/produced", "cluster " + std::to_string(c) +
-                                             " is produced twice or its \"producer\" is not " +
-                                             std::to_string(g));
+            if (graph.producer[c] >= 0 || graph.consumer[c] >= 0) {
+                fail(gs + " produces cluster " + std::to_string(c) +
+                     ", which is produced or consumed earlier (groups come children first)");
             }
-            produced_by[c] = static_cast<int>(g);
-            if (model.clusters[c].level != group.level) {
-                r.fail(gw, "produces cluster " + std::to_string(c) + " of another level");
-            }
+            graph.producer[c] = static_cast<std::int32_t>(g);
+            graph.level[c] = group.level;
         }
     }
-    for (std::size_t c = 0; c < clusters.size(); ++c) {
-        if (consumed_by[c] != model.clusters[c].consumer ||
-            produced_by[c] != model.clusters[c].producer) {
-            r.fail(at + "/clusters/" + std::to_string(c),
-                   "\"producer\"/\"consumer\" disagree with the groups' lists");
+    // chunk ranges: inside the view, none shared or overlapping
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;
+    for (std::size_t g = 0; g < t.groups.size(); ++g) {
+        const std::uint64_t begin = t.groups[g].chunk_offset;
+        const std::uint64_t end = begin + t.groups[g].chunk_length;
+        if (end > p.chunks.size()) {
+            fail("group " + std::to_string(g) + "'s chunk [" + std::to_string(begin) + ", " +
+                 std::to_string(end) + ") leaves the chunks buffer view of " +
+                 std::to_string(p.chunks.size()) + " bytes");
         }
-        if ((model.clusters[c].producer < 0) != (model.clusters[c].level == 0)) {
-            r.fail(at + "/clusters/" + std::to_string(c),
-                   "exactly the level-0 clusters have no producer");
+        ranges.push_back({begin, end});
+    }
+    std::sort(ranges.begin(), ranges.end());
+    for (std::size_t i = 1; i < ranges.size(); ++i) {
+        if (ranges[i].first < ranges[i - 1].second) {
+            fail("two groups' chunks overlap at byte " + std::to_string(ranges[i].first) +
+                 " of the chunks buffer view (each group has a chunk of its own)");
         }
+    }
+    for (std::uint32_t c = 0; c < t.clusters; ++c) {
+        if (graph.consumer[c] < 0) {
+            graph.roots.push_back(c);
+        }
+    }
+    if (graph.roots.size() > format::kMaxChunkClusters) {
+        fail(std::to_string(graph.roots.size()) +
+             " root clusters, more than the base's _CLUSTER holds");
+    }
+    return graph;
+}
+
+// ---- decode ---------------------------------------------------------------------------------
+
+/// The object's vertices, merged by exact position, and the grid check.
+class VertexIndex {
+public:
+    VertexIndex(MultiresMesh& model, double step) : model_(model), step_(step) {}
+
+    /// The object's vertex at `p` (added when new); false when `p` is off the grid.
+    bool add(const std::array<float, 3>& p, std::uint32_t& id) {
+        for (const float x : p) {
+            const double q = x / step_;
+            if (q != std::nearbyint(q)) {
+                return false;
+            }
+        }
+        const auto [it, added] = ids_.emplace(p, static_cast<std::uint32_t>(ids_.size()));
+        if (added) {
+            model_.positions.push_back({p[0], p[1], p[2]});
+        }
+        id = it->second;
+        return true;
     }
 
-    // Vertices: merged by position (bit-identical on the grid); positions must be on the grid.
-    std::map<std::array<float, 3>, std::uint32_t> ids;
-    const double step = model.grid_step;
-    for (std::size_t c = 0; c < raw.size(); ++c) {
-        for (const auto& p : raw[c].positions) {
-            for (float x : p) {
-                const double q = x / step;
-                if (!std::isfinite(x) || q != std::nearbyint(q)) {
-                    r.fail(at + "/clusters/" + std::to_string(c),
-                           "a position is off the grid of step " + std::to_string(step));
-                }
+private:
+    MultiresMesh& model_;
+    double step_;
+    std::map<std::array<float, 3>, std::uint32_t> ids_;
+};
+
+/// Splits a decoded mesh into `clusters` (triangles by `_CLUSTER`, object vertex ids); returns
+/// the object id of every decoded vertex.
+std::vector<std::uint32_t> add_clusters(const JsonReader& r,
+                                        const std::string& where,
+                                        const detail::DecodedChunk& d,
+                                        const std::vector<std::uint32_t>& clusters,
+                                        VertexIndex& index,
+                                        MultiresMesh& model) {
+    std::vector<std::uint32_t> id(d.positions.size());
+    for (std::size_t v = 0; v < id.size(); ++v) {
+        if (!index.add(d.positions[v], id[v])) {
+            r.fail(where, "a position is off the grid of step " + std::to_string(model.grid_step));
+        }
+    }
+    std::vector<std::vector<std::array<std::uint32_t, 3>>> triangles(clusters.size());
+    for (std::size_t t = 0; t < d.triangles.size(); ++t) {
+        const auto& tri = d.triangles[t];
+        triangles[d.triangle_cluster[t]].push_back({id[tri[0]], id[tri[1]], id[tri[2]]});
+    }
+    for (std::size_t k = 0; k < clusters.size(); ++k) {
+        if (triangles[k].empty()) {
+            r.fail(where, "cluster " + std::to_string(clusters[k]) + " (_CLUSTER " +
+                              std::to_string(k) + ") has no triangle");
+        }
+        MultiresCluster& out = model.clusters[clusters[k]];
+        // local vertex lists increasing by id, as MultiresCluster promises
+        for (const auto& t : triangles[k]) {
+            out.vertices.insert(out.vertices.end(), t.begin(), t.end());
+        }
+        std::sort(out.vertices.begin(), out.vertices.end());
+        out.vertices.erase(std::unique(out.vertices.begin(), out.vertices.end()),
+                           out.vertices.end());
+        for (const auto& t : triangles[k]) {
+            std::array<std::uint32_t, 3> local{};
+            for (int i = 0; i < 3; ++i) {
+                local[i] = static_cast<std::uint32_t>(
+                    std::lower_bound(out.vertices.begin(), out.vertices.end(), t[i]) -
+                    out.vertices.begin());
             }
-            if (ids.emplace(p, static_cast<std::uint32_t>(ids.size())).second) {
-                model.positions.push_back({p[0], p[1], p[2]});
+            out.triangles.push_back(local);
+        }
+    }
+    return id;
+}
+
+/// Every vertex of `clusters` inside `sphere` (scene frame) after `to_scene`.
+bool contains_vertices(const MultiresMesh& model,
+                       const std::vector<std::uint32_t>& clusters,
+                       const std::array<float, 4>& sphere,
+                       const std::array<double, 16>& m) {
+    const double slack = double(sphere[3]) * 1e-6 + 1e-9;
+    for (const std::uint32_t c : clusters) {
+        for (const std::uint32_t v : model.clusters[c].vertices) {
+            const Vec3 p = model.positions[v];
+            double d2 = 0.0;
+            for (int k = 0; k < 3; ++k) {
+                const double s =
+                    m[12 + k] + m[k] * p.x + m[4 + k] * p.y + m[8 + k] * p.z - sphere[k];
+                d2 += s * s;
+            }
+            if (std::sqrt(d2) > double(sphere[3]) + slack) {
+                return false;
             }
         }
     }
-    for (std::size_t c = 0; c < raw.size(); ++c) {
-        const std::string cw = at + "/clusters/" + std::to_string(c);
-        MultiresCluster& out = model.clusters[c];
-        const RawCluster& in = raw[c];
-        std::vector<std::uint32_t> global(in.positions.size());
-        for (std::size_t i = 0; i < global.size(); ++i) {
-            global[i] = ids.at(in.positions[i]);
+    return true;
+}
+
+/// The decoded model: base, then each group's chunk, each decoded once.
+ProgressiveFileObject decode_object(const JsonReader& r, ParsedObject& p, const Graph& graph) {
+    ProgressiveFileObject object = std::move(p.out);
+    MultiresMesh& model = object.model;
+    model.grid_step = p.grid_step;
+    model.full_resolution_error_px = p.full_resolution_error;
+    model.clusters.resize(p.table.clusters);
+    for (std::uint32_t c = 0; c < p.table.clusters; ++c) {
+        model.clusters[c].producer = graph.producer[c];
+        model.clusters[c].consumer = graph.consumer[c];
+        model.clusters[c].level = graph.level[c];
+    }
+    VertexIndex index(model, p.grid_step);
+    const auto decode = [&](std::string_view bytes, const detail::DracoAttributeIds& ids,
+                            std::size_t clusters, const std::string& where) {
+        try {
+            return detail::decode_draco_chunk(bytes, ids, static_cast<std::uint32_t>(clusters),
+                                              std::numeric_limits<std::size_t>::max());
+        } catch (const Error& e) {
+            r.fail(where, e.what());
         }
-        // local vertex lists increasing by id, as MultiresCluster promises
-        std::vector<std::uint32_t> order(global);
-        std::sort(order.begin(), order.end());
-        order.erase(std::unique(order.begin(), order.end()), order.end());
-        // note: Draco's Edgebreaker may split a vertex where the cluster is not manifold (two
-        // fans touching at it) into points with one position: they are one vertex again here.
-        out.vertices = order;
-        const auto local = [&](std::uint32_t g) {
-            return static_cast<std::uint32_t>(std::lower_bound(order.begin(), order.end(), g) -
-                                              order.begin());
-        };
-        for (const auto& t : in.triangles) {
-            for (std::uint32_t v : t) {
-                if (v >= global.size()) {
-                    r.fail(cw, "triangle index " + std::to_string(v) +
-                                   " out of range, expected < " + std::to_string(global.size()));
-                }
-            }
-            if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
-                r.fail(cw, "a triangle repeats a vertex");
-            }
-            out.triangles.push_back(
-                {local(global[t[0]]), local(global[t[1]]), local(global[t[2]])});
+    };
+    const std::string base_where = p.where + " (base mesh)";
+    const detail::DecodedChunk base =
+        decode(p.base.bytes, p.base.ids, graph.roots.size(), base_where);
+    if (base.points != p.base.points || 3 * base.triangles.size() != p.base.indices) {
+        r.fail(base_where, "Draco decoded " + std::to_string(base.points) + " points and " +
+                               std::to_string(base.triangles.size()) +
+                               " triangles, the accessors say " + std::to_string(p.base.points) +
+                               " and " + std::to_string(p.base.indices / 3));
+    }
+    add_clusters(r, base_where, base, graph.roots, index, model);
+    for (std::size_t g = 0; g < p.table.groups.size(); ++g) {
+        const format::DagGroup& group = p.table.groups[g];
+        const std::string where = p.where + " (group " + std::to_string(g) + "'s chunk)";
+        const detail::DecodedChunk d =
+            decode(p.chunks.substr(group.chunk_offset, group.chunk_length),
+                   {int(format::kChunkPositionId), int(format::kChunkClusterId),
+                    int(format::kChunkSlotId), -1},
+                   group.consumed.size(), where);
+        const std::vector<std::uint32_t> id =
+            add_clusters(r, where, d, group.consumed, index, model);
+        std::vector<std::uint32_t> coarse;
+        try {
+            coarse = detail::resolve_slots(d.positions, d.triangles, d.slots);
+        } catch (const Error& e) {
+            r.fail(where, e.what());
         }
-        if (!in.coarse.empty()) {
-            constexpr std::uint32_t kUnset = std::numeric_limits<std::uint32_t>::max();
-            out.coarse_vertices.assign(order.size(), kUnset);
-            for (std::size_t i = 0; i < in.coarse.size(); ++i) {
-                const auto it = ids.find(in.coarse[i]);
-                if (it == ids.end()) {
-                    r.fail(cw, "a _COARSE_POSITION is not a vertex of the object");
-                }
-                std::uint32_t& target = out.coarse_vertices[local(global[i])];
-                if (target != kUnset && target != it->second) {
-                    r.fail(cw, "points at one position have different _COARSE_POSITIONs");
-                }
-                target = it->second;
+        std::map<std::uint32_t, std::uint32_t> coarse_of;
+        for (std::size_t v = 0; v < coarse.size(); ++v) {
+            coarse_of[id[v]] = id[coarse[v]];
+        }
+        for (const std::uint32_t c : group.consumed) {
+            MultiresCluster& cluster = model.clusters[c];
+            for (const std::uint32_t v : cluster.vertices) {
+                cluster.coarse_vertices.push_back(coarse_of.at(v));
             }
+        }
+        MultiresGroup out;
+        out.level = group.level;
+        out.consumed = group.consumed;
+        out.produced = group.produced;
+        out.error_px = p.errors[g];
+        out.bounds = {{group.sphere[0], group.sphere[1], group.sphere[2]}, group.sphere[3]};
+        model.groups.push_back(std::move(out));
+        object.level_bytes.resize(std::max<std::size_t>(object.level_bytes.size(), group.level), 0);
+        object.level_bytes[group.level - 1] += group.chunk_length;
+    }
+    // coarse vertices are vertices of the produced clusters; spheres hold their clusters
+    for (std::size_t g = 0; g < model.groups.size(); ++g) {
+        const MultiresGroup& group = model.groups[g];
+        std::vector<std::uint32_t> kept;
+        for (const std::uint32_t c : group.produced) {
+            kept.insert(kept.end(), model.clusters[c].vertices.begin(),
+                        model.clusters[c].vertices.end());
+        }
+        std::sort(kept.begin(), kept.end());
+        for (const std::uint32_t c : group.consumed) {
+            for (const std::uint32_t v : model.clusters[c].coarse_vertices) {
+                if (!std::binary_search(kept.begin(), kept.end(), v)) {
+                    r.fail(p.where + " (group " + std::to_string(g) + ")",
+                           "a slot leads to a vertex that is not in the group's produced clusters");
+                }
+            }
+        }
+        if (!contains_vertices(model, group.consumed, p.table.groups[g].sphere, object.to_scene) ||
+            !contains_vertices(model, group.produced, p.table.groups[g].sphere, object.to_scene)) {
+            r.fail(p.where + "/dag", "group " + std::to_string(g) +
+                                         "'s sphere does not contain its clusters' vertices");
         }
     }
     return object;
@@ -721,7 +715,7 @@ ProgressiveFileObject read_object(const Reader& r,
 ProgressiveFile read_document(std::string_view bytes,
                               const std::string& name,
                               const std::function<std::string(const std::string&)>& load_buffer) {
-    const bool is_glb = bytes.size() >= 4 && le32(bytes, 0) == 0x46546C67;
+    const bool is_glb = bytes.size() >= 4 && le32(bytes, 0) == format::kGlbMagic;
     std::string_view json_text = bytes;
     std::string_view bin;
     if (is_glb) {
@@ -740,7 +734,7 @@ ProgressiveFile read_document(std::string_view bytes,
                             " (truncated or padded)");
         }
         const std::uint64_t json_length = le32(bytes, 12);
-        if (le32(bytes, 16) != 0x4E4F534A || json_length > bytes.size() - 20) {
+        if (le32(bytes, 16) != format::kGlbJsonChunk || json_length > bytes.size() - 20) {
             throw Error(ErrorCode::InvalidInput,
                         name + ": the first GLB chunk (at byte 12) is not a JSON chunk that fits");
         }
@@ -748,7 +742,8 @@ ProgressiveFile read_document(std::string_view bytes,
         const std::uint64_t next = 20 + json_length;
         if (next + 8 <= bytes.size()) {
             const std::uint64_t bin_length = le32(bytes, next);
-            if (le32(bytes, next + 4) != 0x004E4942 || bin_length > bytes.size() - next - 8) {
+            if (le32(bytes, next + 4) != format::kGlbBinChunk ||
+                bin_length > bytes.size() - next - 8) {
                 throw Error(ErrorCode::InvalidInput, name + ": the GLB chunk at byte " +
                                                          std::to_string(next) +
                                                          " is not a BIN chunk that fits");
@@ -767,16 +762,14 @@ ProgressiveFile read_document(std::string_view bytes,
     } catch (const Json::exception& e) {
         throw Error(ErrorCode::InvalidInput, name + ": not glTF JSON: " + e.what());
     }
-    if (!json.is_object()) {
-        throw Error(ErrorCode::InvalidInput, name + ": the JSON is not an object");
-    }
-    const Reader r(name, json);
+    const JsonReader r(name, json);
+    r.object(json, "");
     const Json& asset = r.object(json, "asset", "");
-    if (asset.value("version", std::string()) != "2.0") {
+    if (r.string(asset, "version", "/asset") != "2.0") {
         r.fail("/asset/version", "expected \"2.0\"");
     }
     ProgressiveFile file;
-    file.generator = asset.value("generator", std::string());
+    file.generator = r.string(asset, "generator", "/asset");
     const Data data = load_data(r, bin, is_glb, load_buffer);
     file.total_bytes = bytes.size();
     if (!is_glb) {
@@ -784,32 +777,43 @@ ProgressiveFile read_document(std::string_view bytes,
             file.total_bytes += b.size();
         }
     }
+    // parse every object, then check every graph, then decode
+    std::vector<ParsedObject> parsed;
     const Json& nodes = r.array(json, "nodes", "");
-    // The root node "patient": the scene's first node; object nodes are its children.
     const Json& scenes = r.array(json, "scenes", "");
-    const std::size_t scene = json.contains("scene")
-                                  ? r.index(json["scene"], "/scene", scenes.size(), "scene")
-                                  : r.index(Json(0), "/scene", scenes.size(), "scene");
-    const Json& roots = r.array(scenes[scene], "nodes", "/scenes/" + std::to_string(scene));
+    const std::size_t scene = r.index_or(json, "scene", "", scenes.size(), 0, "scene");
+    if (scenes.empty()) {
+        r.fail("/scenes", "no scene");
+    }
+    const std::string sw = "/scenes/" + std::to_string(scene);
+    const Json& roots = r.array(r.object(scenes[scene], sw), "nodes", sw);
     for (std::size_t i = 0; i < roots.size(); ++i) {
-        const std::size_t root = r.index(roots[i], "/scenes/0/nodes", nodes.size(), "node");
-        const std::array<double, 16> patient =
-            r.matrix(nodes[root], "/nodes/" + std::to_string(root));
-        const Json& children =
-            r.array(nodes[root], "children", "/nodes/" + std::to_string(root), false);
+        const std::size_t root =
+            r.index(roots[i], sw + "/nodes/" + std::to_string(i), nodes.size(), "node");
+        const std::string rw = "/nodes/" + std::to_string(root);
+        const Json& root_node = r.object(nodes[root], rw);
+        const std::array<double, 16> patient = r.numbers<16>(root_node, "matrix", rw, kIdentity);
+        const Json& children = r.array(root_node, "children", rw, false);
         for (std::size_t k = 0; k < children.size(); ++k) {
-            const std::size_t n = r.index(
-                children[k], "/nodes/" + std::to_string(root) + "/children", nodes.size(), "node");
-            const Json& node = nodes[n];
-            if (node.is_object() && node.contains("extensions") && node["extensions"].is_object() &&
-                node["extensions"].contains(kExtension)) {
-                file.objects.push_back(read_object(r, data, n, patient));
+            const std::size_t n =
+                r.index(children[k], rw + "/children/" + std::to_string(k), nodes.size(), "node");
+            const Json* extensions = JsonReader::find(nodes[n], "extensions");
+            if (extensions != nullptr &&
+                JsonReader::find(*extensions, key(format::kExtension)) != nullptr) {
+                parsed.push_back(parse_object(r, data, n, patient));
             }
         }
     }
-    if (file.objects.empty()) {
+    if (parsed.empty()) {
         throw Error(ErrorCode::Unsupported,
                     name + ": no node uses STRATA_progressive_mesh; not a progressive strata file");
+    }
+    std::vector<Graph> graphs;
+    for (const ParsedObject& p : parsed) {
+        graphs.push_back(check_graph(r, p));
+    }
+    for (std::size_t i = 0; i < parsed.size(); ++i) {
+        file.objects.push_back(decode_object(r, parsed[i], graphs[i]));
     }
     return file;
 }

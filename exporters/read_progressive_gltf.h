@@ -23,10 +23,13 @@ struct ProgressiveFileObject {
     /// cluster and group `bounds` in the scene frame (metres). Vertices shared by clusters are
     /// merged by their (bit-identical) positions, so cuts are closed meshes.
     MultiresMesh model;
-    std::array<double, 16> to_patient{};   ///< storage frame -> LPS mm (the node's matrix)
-    std::array<double, 16> to_scene{};     ///< storage frame -> scene metres (patient * node)
-    std::size_t base_bytes = 0;            ///< bytes of the base primitives' data
-    std::vector<std::size_t> level_bytes;  ///< Draco bytes of the chunks of each level
+    std::array<double, 16> to_patient{};  ///< storage frame -> LPS mm (the node's matrix)
+    std::array<double, 16> to_scene{};    ///< storage frame -> scene metres (patient * node)
+    std::size_t base_bytes = 0;           ///< Draco bytes of the base mesh
+    std::size_t dag_bytes = 0;            ///< bytes of the DAG table
+    /// Draco bytes of the chunks per level L: the chunks of the groups of level L + 1, which hold
+    /// clusters of level L (or lower, for a cluster that was kept a level longer)
+    std::vector<std::size_t> level_bytes;
 };
 
 /// A decoded progressive glTF file.
@@ -36,18 +39,19 @@ struct ProgressiveFile {
     std::vector<ProgressiveFileObject> objects;
 };
 
-/// Reads a `.glb` or `.gltf` written by write_progressive_gltf (or anything following
-/// schema/README.md) and validates all of it before returning: the GLB container, the JSON,
-/// buffers and buffer views (sizes, ranges), accessors (types, counts, ranges, index values),
-/// the extension (every index in range, producer/consumer links consistent with the groups'
-/// lists, groups listed children first, so the DAG is acyclic, errors finite and monotone, spheres
-/// finite with radius >= 0, levels consistent), every Draco chunk (decoded; counts as the
-/// accessors say; positions on the grid; each coarse position a vertex of the object) and the
-/// primitives of root clusters. `.gltf` buffers must be relative file names beside the file
-/// (no `..`, no absolute paths, no data URIs).
+/// Reads a `.glb` or `.gltf` of STRATA_progressive_mesh version 2 (schema/README.md) in three
+/// steps, each complete before the next: parse (GLB container, every JSON field read with its
+/// type checked, buffers and views, the base primitive's accessors, the DAG tables), check the
+/// graph (every rule of the spec's "Validation" that needs no geometry: links, levels, order,
+/// monotone errors, nested spheres, chunk ranges inside their view and not shared), then decode
+/// (the base and each chunk once, with decoded sizes capped by the bytes that hold them; positions
+/// on the grid; slots resolved, each coarse vertex a vertex of the group's produced clusters;
+/// spheres containing their clusters' vertices). `.gltf` buffers must be relative file names
+/// beside the file (no `..`, no absolute paths, no data URIs).
 /// \throw Error{InvalidInput} with what is wrong and where (a JSON pointer or byte offset) for
-///        malformed, inconsistent or hostile content; Error{Unsupported} for files that are valid
-///        glTF but not progressive; Error{Io} when a file cannot be read.
+///        malformed, inconsistent or hostile content (never another exception type);
+///        Error{Unsupported} for files that are valid glTF but not progressive version 2;
+///        Error{Io} when a file cannot be read.
 ProgressiveFile read_progressive_gltf(const std::filesystem::path& path);
 
 /// The same from memory: `bytes` is a GLB, or glTF JSON whose buffers `load_buffer(uri)` returns

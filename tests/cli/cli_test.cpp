@@ -219,11 +219,11 @@ TEST(Cli, InfoAndExtractReadTheProgressiveModel) {
     ASSERT_EQ(levels.size(), built.size());
     for (std::size_t l = 0; l < levels.size(); ++l) {
         EXPECT_EQ(levels[l].at("triangles"), built[l].at("triangles")) << l;
-        // the file's bounds are rounded up to 7 significant digits
+        // the file's bounds are rounded up to 3 significant digits
         const double read_mm = levels[l].at("error_mm").get<double>();
         const double built_mm = built[l].at("error_mm").get<double>();
         EXPECT_GE(read_mm, built_mm * (1.0 - 1e-12)) << l;
-        EXPECT_LE(read_mm, built_mm * (1.0 + 1e-6)) << l;
+        EXPECT_LE(read_mm, built_mm * (1.0 + 1e-2)) << l;
     }
     EXPECT_EQ(described.at("total_bytes"), summary.at("model").at("total_bytes"));
 
@@ -240,7 +240,7 @@ TEST(Cli, InfoAndExtractReadTheProgressiveModel) {
     EXPECT_EQ(f.at("triangles"), s.at("triangles"));
     EXPECT_LE(f.at("error_mm").get<double>(), bound_mm);
     EXPECT_GE(f.at("error_mm").get<double>(), s.at("error_mm").get<double>() * (1.0 - 1e-12));
-    EXPECT_LE(f.at("error_mm").get<double>(), s.at("error_mm").get<double>() * (1.0 + 1e-6));
+    EXPECT_LE(f.at("error_mm").get<double>(), s.at("error_mm").get<double>() * (1.0 + 1e-2));
     const TriMesh mesh = read_mesh(out / "file.ply");
     EXPECT_EQ(mesh.triangles.size(), f.at("triangles").get<std::size_t>());
     const MeshReport report = check_mesh(mesh);

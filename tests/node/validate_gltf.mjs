@@ -2,8 +2,8 @@
 //   node tests/node/validate_gltf.mjs FILE...
 // Prints one summary per file and the validator's messages. Exits 0 when no file has any issue
 // but the infos our own extension causes (see allowedIssues: STRATA_progressive_mesh and, in
-// files using it, KHR_draco_mesh_compression unknown to the validator, and the refinement chunks
-// it reaches only through our extension reported as maybe unused), 1 when some file has another error, warning, info or hint (or cannot be read), and 2 for
+// files using it, KHR_draco_mesh_compression unknown to the validator, and the buffer views it
+// reaches only through our extension or Draco reported as maybe unused), 1 when some file has another error, warning, info or hint (or cannot be read), and 2 for
 // usage errors or a missing node_modules (run `npm ci` in tests/node; scripts/test.sh does).
 import { readFile } from 'node:fs/promises';
 import { basename, dirname, resolve } from 'node:path';
@@ -27,8 +27,8 @@ function gltfJson(bytes) {
 
 /// The issues we accept, as JSON pointers per code: the validator does not know our extension;
 /// in files that use it, it does not decode KHR_draco_mesh_compression either, so it reports the
-/// extension as unsupported and the refinement chunks (meshes listed only by
-/// STRATA_progressive_mesh clusters, and the buffer views of their Draco data) as maybe unused.
+/// extension as unsupported and the buffer views only our extension or Draco name (the DAG table,
+/// the chunks, the base meshes' Draco data) as maybe unused.
 /// Nothing else is accepted, and these only for exactly those objects.
 function allowedIssues(json) {
     const allowed = { UNSUPPORTED_EXTENSION: new Set(), UNUSED_OBJECT: new Set() };
@@ -42,18 +42,20 @@ function allowedIssues(json) {
     if (!progressive) {
         return allowed;
     }
-    const drawn = new Set((json.nodes ?? []).filter((n) => n.mesh !== undefined).map((n) => n.mesh));
+    // version 2: the DAG table and chunks views are named only by the extension, and the base
+    // meshes' Draco views only by KHR_draco_mesh_compression, which the validator does not read
     for (const node of json.nodes ?? []) {
-        for (const cluster of node.extensions?.[kAllowedExtension]?.clusters ?? []) {
-            if (drawn.has(cluster.mesh)) {
-                continue;
-            }
-            allowed.UNUSED_OBJECT.add(`/meshes/${cluster.mesh}`);
-            for (const primitive of json.meshes?.[cluster.mesh]?.primitives ?? []) {
-                const draco = primitive.extensions?.[kDraco];
-                if (draco !== undefined) {
-                    allowed.UNUSED_OBJECT.add(`/bufferViews/${draco.bufferView}`);
-                }
+        const ext = node.extensions?.[kAllowedExtension];
+        if (ext === undefined) {
+            continue;
+        }
+        for (const view of [ext.dag, ext.chunks]) {
+            allowed.UNUSED_OBJECT.add(`/bufferViews/${view}`);
+        }
+        for (const primitive of json.meshes?.[node.mesh]?.primitives ?? []) {
+            const draco = primitive.extensions?.[kDraco];
+            if (draco !== undefined) {
+                allowed.UNUSED_OBJECT.add(`/bufferViews/${draco.bufferView}`);
             }
         }
     }
