@@ -19,12 +19,12 @@
 //     once, its reverse once.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { readFileSync } from 'node:fs';
-import { dirname, resolve } from 'node:path';
+import { existsSync, readFileSync } from 'node:fs';
+import { dirname, join, resolve } from 'node:path';
 import { buildDag, clusterTriangleCounts, drawnClusters, selectCut, cutStats } from '../selection.js';
 import { parseGlb, progressiveNodes } from '../gltf-file.js';
 import { kClusterAttribute, kDraco } from '../strata-format.js';
-import { decodeDraco, parseDagTable, readExtension, splitByCluster } from '../strata-decode.js';
+import { decodeDraco, parseDagTable, readExtension, shadingNormals, splitByCluster } from '../strata-decode.js';
 import { testModel } from './test-model.mjs';
 
 const kModel = testModel();
@@ -592,3 +592,95 @@ function bufferViewBytes(json, buffers, index) {
     const start = view.byteOffset ?? 0;
     return buffers[view.buffer].subarray(start, start + view.byteLength);
 }
+
+test("the plugin's normals over the full-resolution cut are the C++ shading normals of scene.glb", async () => {
+    // scene.glb (written beside the model by `strata build`): the full-resolution meshes in patient
+    // mm with strata's C++ shading_normals; the plugin computes its normals with
+    // strata-decode.js's shadingNormals over the drawn cut: over the level-0 cut they must agree
+    const scenePath = join(dirname(kModel), 'scene.glb');
+    assert.ok(existsSync(scenePath), `${scenePath}: missing (strata build writes it beside model.glb)`);
+    const scene = parseGlb(new Uint8Array(readFileSync(scenePath)));
+    const draco = await (await import('draco3d')).default.createDecoderModule({});
+    const { json, objects } = getModel();
+    let compared = 0;
+    let worst = 0;
+    for (const object of objects) {
+        const M = json.nodes[object.nodeIndex].matrix; // local -> patient mm
+        const ids = new Map();
+        const positions = [];
+        const triangles = [];
+        const idOf = (key) => {
+            const [x, y, z] = key.split(',').map(Number);
+            const mm = [0, 1, 2].map((r) => M[r] * x + M[4 + r] * y + M[8 + r] * z + M[12 + r]);
+            const k = mm.map((v) => Math.round(v * 1024)).join(',');
+            if (!ids.has(k)) {
+                ids.set(k, positions.length / 3);
+                positions.push(...mm);
+            }
+            return ids.get(k);
+        };
+        object.ext.clusters.forEach((cluster, c) => {
+            if (cluster.level !== 0) return;
+            for (const t of object.triangles[c]) triangles.push(...t.map(idOf));
+        });
+        const normals = shadingNormals(Float64Array.from(positions), Uint32Array.from(triangles), positions.length / 3);
+        const node = scene.json.nodes.find((n) => n.name === object.name && n.mesh !== undefined);
+        assert.ok(node !== undefined, `scene.glb has no node ${object.name}`);
+        const primitive = scene.json.meshes[node.mesh].primitives[0];
+        let P;
+        let N;
+        let tolerance = 0.1; // degrees: float32 storage
+        const compressed = primitive.extensions?.[kDraco];
+        if (compressed !== undefined) {
+            const bytes = bufferViewBytes(scene.json, [scene.bin], compressed.bufferView);
+            const decoder = new draco.Decoder();
+            const mesh = new draco.Mesh();
+            decoder.DecodeArrayToMesh(
+                new Int8Array(bytes.buffer, bytes.byteOffset, bytes.byteLength),
+                bytes.byteLength,
+                mesh,
+            );
+            const read = (id) => {
+                const values = new draco.DracoFloat32Array();
+                decoder.GetAttributeFloatForAllPoints(mesh, decoder.GetAttributeByUniqueId(mesh, id), values);
+                const out = Float32Array.from({ length: values.size() }, (_, i) => values.GetValue(i));
+                draco.destroy(values);
+                return out;
+            };
+            P = read(compressed.attributes.POSITION);
+            N = read(compressed.attributes.NORMAL);
+            draco.destroy(mesh);
+            draco.destroy(decoder);
+            tolerance = 1; // Draco's normal quantization
+        } else {
+            const read = (index) => {
+                const a = scene.json.accessors[index];
+                const bytes = bufferViewBytes(scene.json, [scene.bin], a.bufferView);
+                return new Float32Array(bytes.slice(a.byteOffset ?? 0).buffer, 0, 3 * a.count);
+            };
+            P = read(primitive.attributes.POSITION);
+            N = read(primitive.attributes.NORMAL);
+        }
+        for (let i = 0; i < P.length / 3; ++i) {
+            const id = ids.get([P[3 * i], P[3 * i + 1], P[3 * i + 2]].map((v) => Math.round(v * 1024)).join(','));
+            assert.ok(id !== undefined, `${object.name}: scene.glb vertex ${i} is not a vertex of the level-0 cut`);
+            const length = Math.hypot(N[3 * i], N[3 * i + 1], N[3 * i + 2]);
+            const dot =
+                (normals[3 * id] * N[3 * i] + normals[3 * id + 1] * N[3 * i + 1] + normals[3 * id + 2] * N[3 * i + 2]) /
+                length;
+            const angle = (Math.acos(Math.min(1, dot)) * 180) / Math.PI;
+            worst = Math.max(worst, angle);
+            assert.ok(
+                angle <= tolerance,
+                `${object.name} vertex ${i}: ${angle.toFixed(3)} degrees from scene.glb's normal`,
+            );
+            ++compared;
+        }
+        assert.equal(
+            P.length / 3,
+            positions.length / 3,
+            `${object.name}: scene.glb and the level-0 cut have other vertices`,
+        );
+    }
+    console.log(`${compared} normals compared with scene.glb: at most ${worst.toFixed(4)} degrees apart`);
+});
