@@ -664,6 +664,7 @@ export class StrataProgressivePlugin {
     }
 
     async afterRoot(result) {
+        const setupStart = performance.now();
         const json = this.parser.json;
         this.sceneRoot = result.scene;
         result.scene.updateMatrixWorld(true);
@@ -702,6 +703,7 @@ export class StrataProgressivePlugin {
             }
         }
         result.userData.strata = this;
+        this.stats.setupMs = performance.now() - setupStart;
         return null;
     }
 

@@ -582,7 +582,7 @@ window.strataViewer = {
             objects: strata?.controllers.map((c) => c.name) ?? [],
             cameraDistance: camera.position.distanceTo(controls.target),
             timing: { ...timing },
-            cpu: { ...cpu, attach: s.attachMs ?? 0, decodeWait: s.decodeWaitMs ?? 0 },
+            cpu: { ...cpu, attach: s.attachMs ?? 0, decodeWait: s.decodeWaitMs ?? 0, setup: s.setupMs ?? 0 },
         };
     },
     /// Moves the camera towards the orbit target (factor < 1) or away from it (factor > 1).
