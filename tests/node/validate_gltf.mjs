@@ -39,6 +39,7 @@ function allowedIssues(json) {
             allowed.UNSUPPORTED_EXTENSION.add(`/extensionsUsed/${i}`);
         }
     });
+    allowLodIssues(json, allowed);
     if (!progressive) {
         return allowed;
     }
@@ -60,6 +61,41 @@ function allowedIssues(json) {
         }
     }
     return allowed;
+}
+
+/// LOD files (exporters/lod_gltf.h, issue 23): the validator knows neither MSFT_lod nor the
+/// compression extensions, so it reports them as unsupported, the coarser level nodes (reached
+/// only through MSFT_lod ids), the Draco data's buffer views and the buffer holding the
+/// EXT_meshopt_compression streams (named only by the extension) as maybe unused.
+function allowLodIssues(json, allowed) {
+    const used = json?.extensionsUsed ?? [];
+    if (!used.includes('MSFT_lod')) {
+        return;
+    }
+    used.forEach((name, i) => {
+        if (['MSFT_lod', kDraco, 'EXT_meshopt_compression'].includes(name)) {
+            allowed.UNSUPPORTED_EXTENSION.add(`/extensionsUsed/${i}`);
+        }
+    });
+    for (const node of json.nodes ?? []) {
+        for (const id of node.extensions?.MSFT_lod?.ids ?? []) {
+            allowed.UNUSED_OBJECT.add(`/nodes/${id}`);
+        }
+    }
+    for (const mesh of json.meshes ?? []) {
+        for (const primitive of mesh.primitives ?? []) {
+            const draco = primitive.extensions?.[kDraco];
+            if (draco !== undefined) {
+                allowed.UNUSED_OBJECT.add(`/bufferViews/${draco.bufferView}`);
+            }
+        }
+    }
+    for (const view of json.bufferViews ?? []) {
+        const meshopt = view.extensions?.EXT_meshopt_compression;
+        if (meshopt !== undefined) {
+            allowed.UNUSED_OBJECT.add(`/buffers/${meshopt.buffer}`);
+        }
+    }
 }
 
 function isAllowed(allowed, message) {
