@@ -64,6 +64,7 @@ const kDefaults = {
     blendMs: 300, // time blend of a refinement or coarsening the threshold did not announce
     cull: true, // refine only groups whose sphere meets the view frustum
     normals: true, // shading normals over the drawn cut (false: the base's normals, chunks flat)
+    normalsMs: 8, // main-thread time per update for recomputing objects' normals (at least one object)
     memoryBudget: 4e6, // triangles of loaded chunks kept; beyond it, chunks off the cut are unloaded
     maxRangeGap: 32768, // merge chunk ranges of one buffer closer than this into one request
     maxRangeBytes: 1 << 20, // ... up to this length
@@ -350,6 +351,12 @@ export class StrataObjectController {
             this.chunkTriangles += triangles;
             this.adopt(c, this.clusterMesh(chunk, start[k], start[k + 1], c));
         });
+        // the chunk's own normals until the welded ones over the drawn cut are computed
+        if (this.plugin.options.normals) {
+            const dirty = this.normalsDirtySince;
+            this.updateNormals(group.consumed);
+            this.normalsDirtySince = dirty;
+        }
         this.groupState[g] = 2;
     }
 
@@ -450,8 +457,10 @@ export class StrataObjectController {
         }
         const key = drawn.join(',');
         if (key !== this.drawnKey) {
+            // the welded normals are recomputed by the plugin within a time budget per update
+            // (newly loaded clusters show their chunk's own normals until then)
             this.drawnKey = key;
-            if (this.plugin.options.normals) this.updateNormals(drawn);
+            this.normalsDirtySince ??= now;
             changed = true;
         }
         this.drawn = drawn;
@@ -467,6 +476,9 @@ export class StrataObjectController {
             const mesh = this.meshes[c];
             if (mesh !== null) count += mesh.userData.range[1] - mesh.userData.range[0];
         }
+        // the drawn vertices, renumbered 0 .. used - 1
+        const local = new Int32Array(this.vertexCount).fill(-1);
+        const positions = [];
         const triangles = new Uint32Array(count);
         let n = 0;
         for (const c of drawn) {
@@ -475,9 +487,18 @@ export class StrataObjectController {
             const [a, b] = mesh.userData.range;
             const index = mesh.geometry.index.array;
             const vertexOf = mesh.geometry.userData.vertexOf;
-            for (let i = a; i < b; ++i) triangles[n++] = vertexOf[index[i]];
+            for (let i = a; i < b; ++i) {
+                const v = vertexOf[index[i]];
+                if (local[v] < 0) {
+                    local[v] = positions.length / 3;
+                    positions.push(this.positionsMm[3 * v], this.positionsMm[3 * v + 1], this.positionsMm[3 * v + 2]);
+                }
+                triangles[n++] = local[v];
+            }
         }
-        const normalsMm = shadingNormals(this.positionsMm, triangles, this.vertexCount);
+        const localNormals = shadingNormals(Float64Array.from(positions), triangles, positions.length / 3);
+        this.normalsDirtySince = null;
+        const normalsMm = localNormals;
         // mm -> local: n_local ~ M^T n_mm (three.js then applies the normal matrix, inverse transpose of M)
         const e = this.toMm.elements;
         const touched = new Set();
@@ -491,7 +512,7 @@ export class StrataObjectController {
             const out = normal.array;
             for (let i = a; i < b; ++i) {
                 const p = index[i];
-                const v = vertexOf[p];
+                const v = local[vertexOf[p]];
                 const x = normalsMm[3 * v];
                 const y = normalsMm[3 * v + 1];
                 const z = normalsMm[3 * v + 2];
@@ -785,6 +806,18 @@ export class StrataProgressivePlugin {
                 }
             }
         });
+        // welded normals of the objects whose drawn cut changed, oldest first, within normalsMs
+        // (at least one object per update)
+        if (this.options.normals) {
+            const dirty = controllers.filter((c) => c.normalsDirtySince != null);
+            dirty.sort((a, b) => a.normalsDirtySince - b.normalsDirtySince);
+            const deadline = performance.now() + this.options.normalsMs;
+            for (const [i, controller] of dirty.entries()) {
+                if (i > 0 && performance.now() > deadline) break;
+                controller.updateNormals(controller.drawn);
+                changed = true;
+            }
+        }
         // wanted groups (a cluster is wanted when its consumer's chunk is missing), best first
         const seen = new Set();
         this.queue = [];
@@ -815,7 +848,12 @@ export class StrataProgressivePlugin {
 
     /// Nothing loading, nothing wanted, no time blend running.
     get idle() {
-        return this.decoding === 0 && this.queue.length === 0 && !this.last?.blending;
+        return (
+            this.decoding === 0 &&
+            this.queue.length === 0 &&
+            !this.last?.blending &&
+            !this.controllers.some((c) => c.normalsDirtySince != null)
+        );
     }
 
     // --- loading ---------------------------------------------------------------------------------
