@@ -485,9 +485,9 @@ function frame(now) {
         if (last.changed || last.blending) cutChanged = true;
         cpu.update += performance.now() - t0;
     }
-    // A change of the cut alone (chunks arriving) is drawn at most every 2 frame times: where
+    // A change of the cut alone (chunks arriving) is drawn at most every 4 frame times: where
     // drawing is slow (software WebGL, huge cuts) loading then keeps most of the main thread.
-    if (cutChanged && now - lastRender >= Math.min(500, 2 * renderInterval)) dirty = true;
+    if (cutChanged && now - lastRender >= Math.min(2000, 4 * renderInterval)) dirty = true;
     if (lastFrame > 0) tickTimes.push(now - lastFrame);
     if (tickTimes.length > 20000) tickTimes.splice(0, tickTimes.length - 20000);
     if (dirty) {
