@@ -169,7 +169,8 @@ function sphereContains(a, b) {
 /// Decodes one Draco bitstream with a draco3d-style decoder module (draco3d's in Node, or three's
 /// glTF decoder): { positions: Float32Array (3 per point), cluster: Uint32Array, slot: Uint32Array
 /// | null, index: Uint32Array }. ids: unique ids { position, cluster, slot } (slot may be absent:
-/// the base mesh). Checks the attributes' presence, component counts and types.
+/// the base mesh; cluster too: a base mesh of one root, all zeros then). Checks the attributes'
+/// presence, component counts and types.
 export function decodeDraco(draco, bytes, ids = kChunkAttributeIds, where = 'chunk') {
     const decoder = new draco.Decoder();
     const mesh = new draco.Mesh();
@@ -199,7 +200,11 @@ export function decodeDraco(draco, bytes, ids = kChunkAttributeIds, where = 'chu
         };
         const positions = read('POSITION', ids.position, 3, [draco.DT_FLOAT32], Float32Array, draco.DT_FLOAT32);
         const unsigned = [draco.DT_UINT8, draco.DT_UINT16];
-        const cluster = read('_CLUSTER', ids.cluster, 1, unsigned, Uint32Array, draco.DT_UINT32);
+        // a base mesh with a single root has no _CLUSTER: every triangle is root 0
+        const cluster =
+            ids.cluster === undefined
+                ? new Uint32Array(points)
+                : read('_CLUSTER', ids.cluster, 1, unsigned, Uint32Array, draco.DT_UINT32);
         const slot =
             ids.slot === undefined ? null : read('_SLOT', ids.slot, 1, [draco.DT_UINT8], Uint32Array, draco.DT_UINT32);
         const indexBytes = faces * 3 * 4;

@@ -215,8 +215,12 @@ export class StrataObjectController {
     splitBase(base, roots) {
         const geometry = base.geometry;
         const clusterAttribute = geometry.getAttribute(kThreeClusterAttribute);
-        if (clusterAttribute === undefined) throw new Error(`${this.name}: the base mesh has no _CLUSTER`);
         const position = geometry.getAttribute('position');
+        if (clusterAttribute === undefined && roots.length !== 1) {
+            throw new Error(`${this.name}: the base mesh has no _CLUSTER but ${roots.length} root clusters`);
+        }
+        // without _CLUSTER (one root) every base triangle is root 0
+        const clusterValues = clusterAttribute ? scalarValues(clusterAttribute) : new Uint32Array(position.count);
         const positions = Float32Array.from({ length: 3 * position.count }, (_, i) =>
             position.getComponent(Math.floor(i / 3), i % 3),
         );

@@ -577,6 +577,9 @@ class FileCheck {
                 [kAttributes.normal]: ['VEC3', [kComponentType.float32]],
                 [kClusterAttribute]: ['SCALAR', [roots > 256 ? kComponentType.uint16 : kComponentType.uint8]],
             };
+            // one root: _CLUSTER may be absent (every base triangle is root 0)
+            if (roots === 1 && primitive.attributes?.[kClusterAttribute] === undefined)
+                delete expect[kClusterAttribute];
             let ok = true;
             for (const [name, [type, componentTypes]] of Object.entries(expect)) {
                 const accessor = accessors[primitive.attributes?.[name]];
@@ -684,14 +687,15 @@ class FileCheck {
             const draco = primitive.extensions[kDraco];
             const baseLabel = `${where} base`;
             try {
-                const ids = {
-                    POSITION: draco.attributes.POSITION,
-                    NORMAL: draco.attributes.NORMAL,
-                    [kClusterAttribute]: draco.attributes[kClusterAttribute],
-                };
+                const ids = { POSITION: draco.attributes.POSITION, NORMAL: draco.attributes.NORMAL };
+                if (draco.attributes[kClusterAttribute] !== undefined)
+                    ids[kClusterAttribute] = draco.attributes[kClusterAttribute];
                 const d = decodeBoth(baseLabel, bufferViewBytes(this.doc, draco.bufferView), ids, {
                     [kClusterAttribute]: 'Uint32Array',
                 });
+                if (d !== null && d.attributes[kClusterAttribute] === undefined) {
+                    d.attributes[kClusterAttribute] = { itemSize: 1, array: new Uint32Array(d.numPoints) };
+                }
                 if (d !== null) {
                     const positionAccessor = accessors[primitive.attributes.POSITION];
                     if (
@@ -968,10 +972,12 @@ class FileCheck {
                         `which has ${primitives.length} primitives (expected one)`,
                 );
             }
+            const hasCluster = primitives[0]?.attributes?.[kClusterAttribute] !== undefined;
             for (const mesh of meshes) {
                 if (
+                    hasCluster &&
                     mesh.geometry.getAttribute(kThreeClusterAttribute)?.count !==
-                    mesh.geometry.getAttribute('position')?.count
+                        mesh.geometry.getAttribute('position')?.count
                 ) {
                     fail(`${where}: the base as loaded by three has no ${kThreeClusterAttribute} per point`);
                 }
