@@ -24,6 +24,7 @@
 #include "core/error.h"
 #include "core/file_names.h"
 #include "exporters/detail/gltf_common.h"
+#include "mesh/shading_normals.h"
 
 namespace strata {
 
@@ -90,23 +91,20 @@ void check_object(const std::filesystem::path& path, const SceneObject& object, 
     }
 }
 
-/// Area-weighted vertex normals (the sum of the incident triangles' cross products), unit
-/// length; +z where the sum vanishes.
-std::vector<Vec3> vertex_normals(const TriMesh& mesh) {
-    std::vector<Vec3> normals(mesh.positions.size());
-    for (const auto& t : mesh.triangles) {
-        const Vec3 a = mesh.positions[t[0]];
-        const Vec3 n = cross(mesh.positions[t[1]] - a, mesh.positions[t[2]] - a);
-        for (std::uint32_t v : t) {
-            normals[v] = normals[v] + n;
+/// The shading normals (mesh/shading_normals.h), as float32; +z where one is not finite (a sum
+/// of products of finite floats can overflow).
+std::vector<float> float_normals(const TriMesh& mesh) {
+    std::vector<float> out;
+    out.reserve(3 * mesh.positions.size());
+    for (Vec3 n : shading_normals(mesh)) {
+        if (!(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z))) {
+            n = {0.0, 0.0, 1.0};
+        }
+        for (int k = 0; k < 3; ++k) {
+            out.push_back(to_float(n[k]));
         }
     }
-    for (Vec3& n : normals) {
-        const double length = norm(n);
-        // note: a sum of products of finite floats can still overflow to infinity
-        n = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * n : Vec3{0, 0, 1};
-    }
-    return normals;
+    return out;
 }
 
 /// The one binary buffer: appends 4-byte aligned buffer views.
@@ -177,13 +175,7 @@ int add_object(tinygltf::Model& model,
             max[k] = std::max(max[k], static_cast<double>(f));
         }
     }
-    std::vector<float> normals;
-    normals.reserve(3 * n);
-    for (const Vec3& v : vertex_normals(mesh)) {
-        for (int k = 0; k < 3; ++k) {
-            normals.push_back(to_float(v[k]));
-        }
-    }
+    const std::vector<float> normals = float_normals(mesh);
 
     tinygltf::Primitive primitive;
     primitive.mode = TINYGLTF_MODE_TRIANGLES;  // note: tinygltf's default -1 would be written

@@ -31,12 +31,13 @@ struct SceneInfo {
 /// `matrix` maps patient LPS millimetres to glTF metres (glTF X = left = +x, Y = superior = +z,
 /// Z = anterior = -y, scale 0.001; a rotation, not a mirror), so vertex data stays in
 /// millimetres; under it one node per object with one mesh (one TRIANGLES primitive: POSITION
-/// as float32 with exact min/max, NORMAL as unit area-weighted vertex normals, indices
-/// UNSIGNED_SHORT when there are at most 65535 vertices, else UNSIGNED_INT) and one material
-/// (sRGB colour linearised into `baseColorFactor`, metallic 0, roughness 0.6, single-sided).
-/// Node `extras`: {"label", "source", "spacing_mm", "units": "mm"}; an empty name becomes
-/// "label <value>". Objects without triangles are skipped; unreferenced vertices are kept (a
-/// vertex whose normal is undefined, e.g. unreferenced or only in degenerate triangles, gets +z).
+/// as float32 with exact min/max, NORMAL as the unit shading normals of mesh/shading_normals.h,
+/// indices UNSIGNED_SHORT when there are at most 65535 vertices, else UNSIGNED_INT) and one
+/// material (sRGB colour linearised into `baseColorFactor`, metallic 0, roughness 0.6,
+/// single-sided). Node `extras`: {"label", "source", "spacing_mm", "units": "mm"}; an empty name
+/// becomes "label <value>". Objects without triangles are skipped; unreferenced vertices are kept
+/// (a vertex whose normal is undefined, e.g. unreferenced or only in degenerate triangles, gets
+/// +z).
 ///
 /// Atomic: everything is built in memory and written to temporary files that are renamed into
 /// place, so on failure existing files are untouched and no partial file is left. Parent folders

@@ -11,6 +11,7 @@ apt_packages=(
     zlib1g-dev                                               # NIfTI .nii.gz, NRRD gzip
     nlohmann-json3-dev libcli11-dev
     libtinygltf-dev libdraco-dev                             # glTF writer, Draco chunks
+    libmeshoptimizer-dev                                     # EXT_meshopt_compression (lods.glb)
     libcgal-dev libgmp-dev libmpfr-dev                       # exact geometry (self-intersection)
     libgtest-dev libgmock-dev libbenchmark-dev               # tests and benchmarks
     clang-format-14                                          # formatting check

@@ -3,7 +3,7 @@
 #   bash scripts/test.sh              Release build in ./build
 #   bash scripts/test.sh --sanitize   AddressSanitizer + UndefinedBehaviorSanitizer in ./build-asan
 # Also installs what only the tests need: Debian's chromium (install-deps --tests) and the npm
-# packages of tests/node and web-viewer, as locked.
+# packages of tests/node, tests/babylon and web-viewer, as locked.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh --tests
@@ -13,6 +13,12 @@ if [ ! -f tests/node/node_modules/.package-lock.json ] ||
     [ tests/node/package-lock.json -nt tests/node/node_modules/.package-lock.json ]; then
     echo "test: npm ci in tests/node"
     (cd tests/node && npm ci --no-audit --no-fund)
+fi
+# the LOD file's Babylon.js test (tests/babylon: @babylonjs/core, @babylonjs/loaders, draco3d), likewise
+if [ ! -f tests/babylon/node_modules/.package-lock.json ] ||
+    [ tests/babylon/package-lock.json -nt tests/babylon/node_modules/.package-lock.json ]; then
+    echo "test: npm ci in tests/babylon"
+    (cd tests/babylon && npm ci --no-audit --no-fund)
 fi
 # the web viewer's npm packages (three.js, draco3d, playwright-core), likewise
 if [ ! -f web-viewer/node_modules/.package-lock.json ] ||

@@ -10,9 +10,17 @@ export const kChromium = process.env.STRATA_CHROMIUM ?? '/usr/bin/chromium';
 /// Flags: headless without sandbox (root), software WebGL (SwiftShader; no GPU here), and no
 /// background networking (the machine has no network but the loopback).
 export const kChromiumArgs = [
-    '--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync',
-    '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
+    '--headless',
+    '--no-sandbox',
+    '--disable-gpu',
+    '--disable-quic',
+    '--no-first-run',
+    '--disable-background-networking',
+    '--disable-component-update',
+    '--disable-sync',
+    '--use-angle=swiftshader',
+    '--enable-unsafe-swiftshader',
+    '--ignore-gpu-blocklist',
 ];
 
 /// Why Chromium cannot run, or null.

@@ -15,7 +15,9 @@
 //   selectCut(dags, view, options)        the viewer's cut: tau in pixels, region of interest,
 //                                         frustum, triangle budget, chunks not yet loaded
 
-export const kExtension = 'STRATA_progressive_mesh';
+import { kExtension } from './strata-format.js';
+
+export { kExtension };
 
 // ------------------------------------------------------------------------------------------------
 // the DAG
@@ -33,7 +35,10 @@ export function validateExtension(ext) {
     const consumedBy = new Array(clusters.length).fill(undefined);
     const producedBy = new Array(clusters.length).fill(undefined);
     groups.forEach((g, gi) => {
-        for (const [list, by, what] of [[g.consumed, consumedBy, 'consumed'], [g.produced, producedBy, 'produced']]) {
+        for (const [list, by, what] of [
+            [g.consumed, consumedBy, 'consumed'],
+            [g.produced, producedBy, 'produced'],
+        ]) {
             if (!Array.isArray(list) || list.length === 0) {
                 problems.push(`group ${gi}: no ${what} clusters`);
                 continue;
@@ -131,8 +136,10 @@ export function buildDag(ext, { clusterTriangles } = {}) {
     const children = groups.map((g) => [...new Set(g.consumed.map((c) => producer[c]).filter((p) => p >= 0))]);
     const parents = groups.map((g) => [...new Set(g.produced.map((c) => consumer[c]).filter((p) => p >= 0))]);
     // triangles added by refining g: consumed minus produced
-    const delta = Float64Array.from(groups, (g) =>
-        g.consumed.reduce((s, c) => s + triangles[c], 0) - g.produced.reduce((s, c) => s + triangles[c], 0));
+    const delta = Float64Array.from(
+        groups,
+        (g) => g.consumed.reduce((s, c) => s + triangles[c], 0) - g.produced.reduce((s, c) => s + triangles[c], 0),
+    );
     const roots = [];
     for (let c = 0; c < nc; ++c) {
         if (consumer[c] < 0) roots.push(c);
@@ -140,8 +147,23 @@ export function buildDag(ext, { clusterTriangles } = {}) {
     const baseTriangles = roots.reduce((s, c) => s + triangles[c], 0);
     const totalTriangles = triangles.reduce((s, t) => s + t, 0);
     return {
-        ext, clusters, groups, nc, ng, producer, consumer, triangles, error, sphere, clusterSphere,
-        children, parents, delta, roots, baseTriangles, totalTriangles,
+        ext,
+        clusters,
+        groups,
+        nc,
+        ng,
+        producer,
+        consumer,
+        triangles,
+        error,
+        sphere,
+        clusterSphere,
+        children,
+        parents,
+        delta,
+        roots,
+        baseTriangles,
+        totalTriangles,
         fullResolutionError: ext.fullResolutionError ?? 0,
     };
 }
@@ -221,7 +243,7 @@ export function cutForPredicate(dag, predicate, isLoaded = null) {
 /// error * heightPx / (d * 2 tan(fovy / 2)), d = max(0, |camera - centre| - r); Infinity at d = 0.
 export function screenSpaceError(error, sphere, view, offset = 0) {
     if (view.orthographic) {
-        return error * view.heightPx / view.viewHeight;
+        return (error * view.heightPx) / view.viewHeight;
     }
     const dx = view.position[0] - sphere[offset];
     const dy = view.position[1] - sphere[offset + 1];
@@ -230,7 +252,7 @@ export function screenSpaceError(error, sphere, view, offset = 0) {
     if (!(d > 0)) {
         return error > 0 ? Infinity : 0;
     }
-    return error * view.heightPx / (d * 2 * Math.tan(view.fovy / 2));
+    return (error * view.heightPx) / (d * 2 * Math.tan(view.fovy / 2));
 }
 
 /// Screen-space error of group g (its error at its sphere).
@@ -343,7 +365,7 @@ export function selectCut(dags, view, options = {}) {
     const tau = options.tauPx ?? 1;
     const budget = options.budget ?? Infinity;
     const roi = options.roi ?? null;
-    const frustum = options.cull === false ? null : view.frustum ?? null;
+    const frustum = options.cull === false ? null : (view.frustum ?? null);
     const isLoaded = options.isLoaded ?? null;
     const k = options.morphK ?? 2;
     const heap = new MaxHeap();
@@ -354,7 +376,7 @@ export function selectCut(dags, view, options = {}) {
         for (let g = 0; g < dag.ng; ++g) {
             let r = 0;
             if (sphereInFrustum(dag.sphere, 4 * g, frustum)) {
-                r = groupScreenSpaceError(dag, g, view) * roiFactor(dag, g, roi) / tau;
+                r = (groupScreenSpaceError(dag, g, view) * roiFactor(dag, g, roi)) / tau;
             }
             ratio[g] = r;
             let p = r;

@@ -60,7 +60,7 @@ function fileUnder(root, urlPath) {
 export function parseRange(header, size) {
     if (!header) return null;
     const match = /^bytes=(\d*)-(\d*)$/.exec(header.trim());
-    if (!match) return null;  // multiple ranges or other units: answer with the whole file
+    if (!match) return null; // multiple ranges or other units: answer with the whole file
     const [, a, b] = match;
     let start;
     let end;
@@ -142,14 +142,56 @@ export function startServer({ model, port = 8347, host = '127.0.0.1', log = null
             const modelPath = modelFile ? `?model=model/${encodeURIComponent(basename(modelFile))}` : '';
             const url = `http://${host}:${actual}/${modelPath}`;
             resolvePromise({
-                server, port: actual, url,
-                close: () => new Promise((r) => {
-                    server.closeAllConnections?.();
-                    server.close(() => r());
-                }),
+                server,
+                port: actual,
+                url,
+                close: () =>
+                    new Promise((r) => {
+                        server.closeAllConnections?.();
+                        server.close(() => r());
+                    }),
             });
         });
     });
+}
+
+/// Why a model path cannot be served, or null.
+export function modelProblem(model) {
+    let stat;
+    try {
+        stat = statSync(model);
+    } catch (error) {
+        if (error.code === 'ENOENT')
+            return `${model}: no such file (expected a .glb or .gltf written by \`strata build\`)`;
+        if (error.code === 'EACCES') return `${model}: permission denied`;
+        return `${model}: cannot read it (${error.code ?? error.message})`;
+    }
+    if (stat.isDirectory())
+        return `${model}: a folder, expected a .glb or .gltf file (e.g. ${join(model, 'model.glb')})`;
+    if (!stat.isFile()) return `${model}: not a regular file, expected a .glb or .gltf file`;
+    if (!/\.(glb|gltf)$/i.test(model)) return `${model}: not a .glb or .gltf file (by its extension)`;
+    return null;
+}
+
+/// A clear message for a server that could not listen.
+export function listenProblem(error, host, port) {
+    switch (error?.code) {
+        case 'EADDRINUSE':
+            return `port ${port} on ${host} is already in use: stop the other server or pass --port N (--port 0 picks a free port)`;
+        case 'EACCES':
+            return `no permission to listen on port ${port} of ${host}: pass --port N with N >= 1024`;
+        case 'EADDRNOTAVAIL':
+        case 'ENOTFOUND':
+            return `cannot listen on ${host}: not an address of this machine (--host)`;
+        default:
+            return `cannot listen on ${host}:${port}: ${error?.message ?? error}`;
+    }
+}
+
+/// Prints `serve.mjs: error: MESSAGE` and exits with 2 (bad input or usage, as strata does).
+function fail(message) {
+    console.error(`serve.mjs: error: ${message}`);
+    process.exit(2);
 }
 
 function usage(message) {
@@ -184,11 +226,17 @@ async function main(args) {
         }
     }
     if (model === null) usage('no model given');
-    if (!existsSync(model) || !statSync(model).isFile() || !/\.(glb|gltf)$/i.test(model)) usage(`${model}: not a .glb or .gltf file`);
+    const problem = modelProblem(model);
+    if (problem !== null) fail(problem);
     if (!existsSync(join(kHere, 'node_modules', 'three', 'build', 'three.module.js'))) {
-        usage(`three.js is missing: run \`npm ci\` in ${kHere}`);
+        fail(`three.js is missing in ${kHere}/node_modules: run \`npm ci\` there`);
     }
-    const { url } = await startServer({ model, port, host, log: verbose ? (line) => console.log(line) : null });
+    let url;
+    try {
+        ({ url } = await startServer({ model, port, host, log: verbose ? (line) => console.log(line) : null }));
+    } catch (error) {
+        fail(listenProblem(error, host, port));
+    }
     console.log(`strata viewer: ${url}`);
     console.log('(Ctrl-C stops the server)');
 }

@@ -28,72 +28,87 @@
 // after a refinement the threshold did not announce, e.g. a chunk arriving late). Root clusters use
 // the same program with w = 0 (no _COARSE_POSITION: it reads as 0, and p + (0 - p) * 0 == p
 // exactly), so shared vertices are transformed by identical code in every cluster.
+import { Frustum, LoaderUtils, Matrix4, Mesh, MeshBasicMaterial, Vector3, Sphere, Box3 } from 'three';
 import {
-    Frustum, LoaderUtils, Matrix4, Mesh, MeshBasicMaterial, Vector3, Sphere, Box3,
-} from 'three';
-import {
-    buildDag, clusterError, clusterTriangleCounts, cutStats, kExtension, selectCut, sphereMeetsRoi,
+    buildDag,
+    clusterError,
+    clusterTriangleCounts,
+    cutStats,
+    selectCut,
+    sphereMeetsRoi,
     validateExtension,
 } from './selection.js';
-import { coalesceRanges, glbLayout, meshBufferViews, progressiveNodes } from './gltf-file.js';
-
-const kDraco = 'KHR_draco_mesh_compression';
+import { ByteCoverage, coalesceRanges, glbLayout, meshBufferViews, progressiveNodes } from './gltf-file.js';
+import { kDraco, kExtension, kThreeAttributes } from './strata-format.js';
 
 const kDefaults = {
-    concurrency: 4,         // HTTP requests in flight
-    maxDecodes: 16,         // chunks fetched or decoding at once (DRACOLoader's workers queue them)
-    morph: true,            // geomorphs
-    morphK: 2,              // w = clamp((k - sse / tau) / (k - 1), 0, 1)
-    blendMs: 300,           // time blend after a refinement the threshold did not announce
-    cull: true,             // refine only groups whose sphere meets the view frustum
-    maxRangeGap: 16384,     // merge chunk ranges of one buffer closer than this into one request
+    concurrency: 4, // HTTP requests in flight
+    maxDecodes: 16, // chunks fetched or decoding at once (DRACOLoader's workers queue them)
+    morph: true, // geomorphs
+    morphK: 2, // w = clamp((k - sse / tau) / (k - 1), 0, 1)
+    blendMs: 300, // time blend after a refinement the threshold did not announce
+    cull: true, // refine only groups whose sphere meets the view frustum
+    maxRangeGap: 16384, // merge chunk ranges of one buffer closer than this into one request
     maxRangeBytes: 1 << 20, // ... up to this length
-    source: null,           // set by loadStrataModel: { kind: 'glb-range', url, binOffset, length, prefix }
-    initialBytes: 0,        // bytes fetched before GLTFLoader ran (loadStrataModel: the JSON)
-    totalBytes: 0,          // total size of the model's files, when known
-    fetch: null,            // fetch function (default globalThis.fetch)
-    onChange: null,         // called when a chunk arrives (an app that renders on demand re-renders)
+    source: null, // set by loadStrataModel: { kind: 'glb-range', url, binOffset, length, prefix }
+    initialBytes: 0, // bytes fetched before GLTFLoader ran (loadStrataModel: the JSON)
+    initialRanges: [], // ... as [url, start, end) triples (distinct bytes are counted once)
+    totalBytes: 0, // total size of the model's files, when known
+    fetch: null, // fetch function (default globalThis.fetch)
+    onChange: null, // called when a chunk arrives (an app that renders on demand re-renders)
 };
 
 // ------------------------------------------------------------------------------------------------
 // byte sources
 
 /// Fetches [start, end) of url with a Range request; a server that answers 200 gives the whole
-/// file, which is then kept (whole) for later ranges of the same url.
+/// file, which is then kept (whole) for later ranges of the same url. stats.bytesFetched counts
+/// every byte received, stats.bytesLoaded the distinct bytes of the model's files (so it never
+/// exceeds their size).
 class RangeFetcher {
-    constructor(fetchFn, stats) {
+    constructor(fetchFn, stats, coverage) {
         this.fetch = fetchFn;
         this.stats = stats;
-        this.whole = new Map();  // url -> Promise<ArrayBuffer> when ranges are not supported
+        this.coverage = coverage;
+        this.whole = new Map(); // url -> Promise<ArrayBuffer> when ranges are not supported
     }
 
-    async range(url, start, end) {
+    count(url, start, bytes) {
+        ++this.stats.requests;
+        this.stats.bytesFetched += bytes;
+        this.stats.bytesLoaded += this.coverage.add(url, start, start + bytes);
+    }
+
+    /// signal: an AbortSignal (the request is dropped when it becomes obsolete).
+    async range(url, start, end, signal = undefined) {
         if (this.whole.has(url)) {
             return (await this.whole.get(url)).slice(start, end);
         }
-        const response = await this.fetch(url, { headers: { Range: `bytes=${start}-${end - 1}` } });
+        const response = await this.fetch(url, { headers: { Range: `bytes=${start}-${end - 1}` }, signal });
         if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
         const body = await response.arrayBuffer();
-        ++this.stats.requests;
-        this.stats.bytesLoaded += body.byteLength;
+        this.count(url, response.status === 206 ? start : 0, body.byteLength);
         if (response.status === 206) {
-            if (body.byteLength !== end - start) throw new Error(`${url}: range ${start}-${end} gave ${body.byteLength} bytes`);
+            if (body.byteLength !== end - start)
+                throw new Error(`${url}: range ${start}-${end} gave ${body.byteLength} bytes`);
             return body;
         }
-        this.whole.set(url, Promise.resolve(body));  // no range support: we have it all now
+        this.whole.set(url, Promise.resolve(body)); // no range support: we have it all now
         return body.slice(start, end);
     }
 
     async all(url) {
         if (!this.whole.has(url)) {
-            this.whole.set(url, (async () => {
-                const response = await this.fetch(url);
-                if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
-                const body = await response.arrayBuffer();
-                ++this.stats.requests;
-                this.stats.bytesLoaded += body.byteLength;
-                return body;
-            })());
+            this.whole.set(
+                url,
+                (async () => {
+                    const response = await this.fetch(url);
+                    if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+                    const body = await response.arrayBuffer();
+                    this.count(url, 0, body.byteLength);
+                    return body;
+                })(),
+            );
         }
         return this.whole.get(url);
     }
@@ -111,9 +126,12 @@ function morphMaterial(base) {
     material.userData.strataBaseColor = base.color?.clone();
     material.onBeforeCompile = (shader) => {
         shader.uniforms.strataMorph = uniform;
-        shader.vertexShader = 'invariant gl_Position;\nattribute vec3 _coarse_position;\nuniform float strataMorph;\n' +
-            shader.vertexShader.replace('#include <begin_vertex>',
-                'vec3 transformed = position + ( _coarse_position - position ) * strataMorph;');
+        shader.vertexShader =
+            'invariant gl_Position;\nattribute vec3 _coarse_position;\nuniform float strataMorph;\n' +
+            shader.vertexShader.replace(
+                '#include <begin_vertex>',
+                'vec3 transformed = position + ( _coarse_position - position ) * strataMorph;',
+            );
     };
     material.customProgramCacheKey = () => 'strata-morph-1';
     return material;
@@ -133,8 +151,8 @@ export class StrataObjectController {
         this.ext = ext;
         this.dag = buildDag(ext, { clusterTriangles: clusterTriangleCounts(ext, json) });
         const nc = this.dag.nc;
-        this.meshes = new Array(nc).fill(null);  // cluster -> Mesh (null until loaded)
-        this.state = new Uint8Array(nc);          // 0 not requested, 1 requested, 2 loaded, 3 failed
+        this.meshes = new Array(nc).fill(null); // cluster -> Mesh (null until loaded)
+        this.state = new Uint8Array(nc); // 0 not requested, 1 requested, 2 loaded, 3 failed
         this.refined = new Uint8Array(this.dag.ng);
         this.refinedAt = new Float64Array(this.dag.ng).fill(-Infinity);
         this.drawn = [];
@@ -184,7 +202,7 @@ export class StrataObjectController {
         const geometry = loaded.geometry;
         // bounds that contain the morph too (frustum culling of the mesh)
         const box = new Box3().setFromBufferAttribute(geometry.getAttribute('position'));
-        const coarse = geometry.getAttribute('_coarse_position');
+        const coarse = geometry.getAttribute(kThreeAttributes.coarsePosition);
         if (coarse !== undefined) box.union(new Box3().setFromBufferAttribute(coarse));
         geometry.boundingBox = box;
         geometry.boundingSphere = box.getBoundingSphere(new Sphere());
@@ -273,7 +291,7 @@ export class StrataObjectController {
         this.maxLevel ??= this.ext.clusters.reduce((m, k) => Math.max(m, k.level), 1);
         const levels = this.maxLevel;
         const level = this.ext.clusters[c].level;
-        material.color.setHSL(0.66 * (1 - level / levels), 0.8, 0.5 + 0.1 * ((c * 7) % 3 - 1));
+        material.color.setHSL(0.66 * (1 - level / levels), 0.8, 0.5 + 0.1 * (((c * 7) % 3) - 1));
     }
 }
 
@@ -285,19 +303,34 @@ export class StrataProgressivePlugin {
         this.name = kExtension;
         this.parser = parser;
         this.options = { ...kDefaults, ...options };
-        this.stats = { bytesLoaded: this.options.initialBytes, bytesTotal: this.options.totalBytes, requests: 0,
-                       chunksLoaded: 0, chunksTotal: 0, chunkBytesLoaded: 0, failures: 0 };
-        this.fetcher = new RangeFetcher(this.options.fetch ?? globalThis.fetch.bind(globalThis), this.stats);
+        // distinct bytes per file: the ranges read before GLTFLoader ran, then every fetch
+        this.coverage = new ByteCoverage();
+        for (const [url, start, end] of this.options.initialRanges) this.coverage.add(url, start, end);
+        this.stats = {
+            bytesLoaded: this.options.initialRanges.length > 0 ? this.coverage.size : this.options.initialBytes,
+            bytesFetched: this.options.initialBytes,
+            bytesTotal: this.options.totalBytes,
+            requests: 0,
+            chunksLoaded: 0,
+            chunksTotal: 0,
+            chunkBytesLoaded: 0,
+            failures: 0,
+        };
+        this.fetcher = new RangeFetcher(
+            this.options.fetch ?? globalThis.fetch.bind(globalThis),
+            this.stats,
+            this.coverage,
+        );
         this.controllers = [];
-        this.chunkViews = new Map();  // bufferView index -> { nodeIndex, cluster } of every chunk
+        this.chunkViews = new Map(); // bufferView index -> { nodeIndex, cluster } of every chunk
         this.controllerOf = new Map(); // node index -> controller
-        this.viewBytes = new Map();   // bufferView index -> ArrayBuffer fetched ahead (ranges)
-        this.queue = [];              // wanted chunks of the last update, best first
-        this.requests = 0;            // HTTP requests in flight
-        this.decoding = 0;            // chunks requested and not yet attached
-        this.changed = false;         // something to draw differently since the last update
+        this.viewBytes = new Map(); // bufferView index -> ArrayBuffer fetched ahead (ranges)
+        this.queue = []; // wanted chunks of the last update, best first
+        this.requests = 0; // HTTP requests in flight
+        this.decoding = 0; // chunks requested and not yet attached
+        this.changed = false; // something to draw differently since the last update
         this.sceneRoot = null;
-        this.last = null;             // the last update's summary
+        this.last = null; // the last update's summary
         this.errors = [];
     }
 
@@ -308,8 +341,10 @@ export class StrataProgressivePlugin {
         const source = this.options.source;
         for (const { nodeIndex, ext } of progressiveNodes(json, kExtension)) {
             for (const [c, cluster] of (ext.clusters ?? []).entries()) {
-                const view = json.meshes?.[cluster.mesh]?.primitives?.[cluster.primitive ?? 0]?.extensions?.[kDraco]?.bufferView;
-                if (cluster.consumer !== undefined && view !== undefined) this.chunkViews.set(view, { nodeIndex, cluster: c });
+                const view =
+                    json.meshes?.[cluster.mesh]?.primitives?.[cluster.primitive ?? 0]?.extensions?.[kDraco]?.bufferView;
+                if (cluster.consumer !== undefined && view !== undefined)
+                    this.chunkViews.set(view, { nodeIndex, cluster: c });
             }
         }
         if (this.stats.bytesTotal === 0) {
@@ -322,16 +357,22 @@ export class StrataProgressivePlugin {
         for (const node of json.nodes ?? []) {
             if (node.mesh !== undefined) meshBufferViews(json, node.mesh).forEach((v) => views.add(v));
         }
-        const ranges = coalesceRanges(json, [...views].filter((v) => json.bufferViews[v].buffer === 0), 4096);
-        return Promise.all(ranges.map(async (range) => {
-            const bytes = await this.glbRange(range.start, range.end);
-            this.stash(0, range.start, bytes);
-            for (const v of range.views) {
-                const def = json.bufferViews[v];
-                const start = (def.byteOffset ?? 0) - range.start;
-                this.viewBytes.set(v, bytes.slice(start, start + def.byteLength));
-            }
-        }));
+        const ranges = coalesceRanges(
+            json,
+            [...views].filter((v) => json.bufferViews[v].buffer === 0),
+            4096,
+        );
+        return Promise.all(
+            ranges.map(async (range) => {
+                const bytes = await this.glbRange(range.start, range.end);
+                this.stash(0, range.start, bytes);
+                for (const v of range.views) {
+                    const def = json.bufferViews[v];
+                    const start = (def.byteOffset ?? 0) - range.start;
+                    this.viewBytes.set(v, bytes.slice(start, start + def.byteLength));
+                }
+            }),
+        );
     }
 
     /// Keeps the bytes of every chunk bufferView that lies inside a fetched range of a buffer (the
@@ -372,7 +413,7 @@ export class StrataProgressivePlugin {
             return this.glbRange(start, end);
         }
         const uri = json.buffers[def.buffer]?.uri;
-        if (uri === undefined || uri.startsWith('data:')) return null;  // in memory: GLTFLoader's way
+        if (uri === undefined || uri.startsWith('data:')) return null; // in memory: GLTFLoader's way
         const url = LoaderUtils.resolveURL(uri, this.parser.options.path);
         if (this.chunkViews.has(index)) return this.fetcher.range(url, start, end);
         return this.fetcher.all(url).then((buffer) => buffer.slice(start, end));
@@ -391,7 +432,9 @@ export class StrataProgressivePlugin {
             const problems = validateExtension(ext);
             if (object === undefined || problems.length > 0) {
                 // fall back to the base mesh (schema/README.md, Validation)
-                console.warn(`${kExtension}: node ${nodeIndex} uses its base mesh only: ${problems[0] ?? 'not in the scene'}`);
+                console.warn(
+                    `${kExtension}: node ${nodeIndex} uses its base mesh only: ${problems[0] ?? 'not in the scene'}`,
+                );
                 continue;
             }
             const controller = new StrataObjectController(this, nodeIndex, object, ext, json);
@@ -419,16 +462,22 @@ export class StrataProgressivePlugin {
         const scale = toScene.getMaxScaleOnAxis();
         const position = new Vector3().setFromMatrixPosition(camera.matrixWorld).applyMatrix4(toScene);
         const frustum = new Frustum().setFromProjectionMatrix(
-            new Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse));
+            new Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse),
+        );
         const planes = frustum.planes.map((p) => {
             const q = p.clone().applyMatrix4(toScene);
             return [q.normal.x, q.normal.y, q.normal.z, q.constant];
         });
         if (camera.isOrthographicCamera) {
-            return { orthographic: true, viewHeight: (camera.top - camera.bottom) / camera.zoom * scale,
-                     heightPx: viewportHeightPx, position: position.toArray(), frustum: planes };
+            return {
+                orthographic: true,
+                viewHeight: ((camera.top - camera.bottom) / camera.zoom) * scale,
+                heightPx: viewportHeightPx,
+                position: position.toArray(),
+                frustum: planes,
+            };
         }
-        const fovy = 2 * Math.atan(Math.tan(camera.fov * Math.PI / 360) / camera.zoom);
+        const fovy = 2 * Math.atan(Math.tan((camera.fov * Math.PI) / 360) / camera.zoom);
         return { position: position.toArray(), fovy, heightPx: viewportHeightPx, frustum: planes };
     }
 
@@ -439,12 +488,22 @@ export class StrataProgressivePlugin {
     /// changed (the picture differs from the last update's: an app rendering on demand renders) }.
     update(camera, viewportHeightPx, tauPx = 1, budget = Infinity, options = {}) {
         const now = performance.now();
-        const controllers = (options.controllers ?? this.controllers).filter((c) => c.object.visible && isShown(c.object));
+        const controllers = (options.controllers ?? this.controllers).filter(
+            (c) => c.object.visible && isShown(c.object),
+        );
         const view = this.viewOf(camera, viewportHeightPx);
-        const result = selectCut(controllers.map((c) => c.dag), view, {
-            tauPx, budget, roi: options.roi ?? null, cull: options.cull ?? this.options.cull,
-            morphK: this.options.morphK, isLoaded: (di, c) => controllers[di].isLoaded(c),
-        });
+        const result = selectCut(
+            controllers.map((c) => c.dag),
+            view,
+            {
+                tauPx,
+                budget,
+                roi: options.roi ?? null,
+                cull: options.cull ?? this.options.cull,
+                morphK: this.options.morphK,
+                isLoaded: (di, c) => controllers[di].isLoaded(c),
+            },
+        );
         const morph = options.morph ?? this.options.morph;
         let maxError = 0;
         let maxErrorPx = 0;
@@ -459,7 +518,8 @@ export class StrataProgressivePlugin {
             maxErrorPx = Math.max(maxErrorPx, stats.maxErrorPx);
             if (options.roi) {
                 for (const c of result.cuts[di].drawn) {
-                    if (sphereMeetsRoi(controller.dag.clusterSphere, 4 * c, options.roi)) roiTriangles += controller.dag.triangles[c];
+                    if (sphereMeetsRoi(controller.dag.clusterSphere, 4 * c, options.roi))
+                        roiTriangles += controller.dag.triangles[c];
                 }
             }
         });
@@ -468,16 +528,22 @@ export class StrataProgressivePlugin {
             .filter((w) => w.controller.state[w.cluster] === 0);
         this.pump();
         this.last = {
-            triangles: result.triangles, maxError, maxErrorPx, budgetLimited: result.budgetLimited,
-            wanted: this.queue.length, roiTriangles, refinedGroups: result.refinedCount,
-            blending: controllers.some((c) => c.blending(now)), changed,
+            triangles: result.triangles,
+            maxError,
+            maxErrorPx,
+            budgetLimited: result.budgetLimited,
+            wanted: this.queue.length,
+            roiTriangles,
+            refinedGroups: result.refinedCount,
+            blending: controllers.some((c) => c.blending(now)),
+            changed,
         };
         return this.last;
     }
 
     /// Nothing loading, nothing wanted, no time blend running.
     get idle() {
-        return this.decoding === 0 && this.queue.length === 0 && !(this.last?.blending);
+        return this.decoding === 0 && this.queue.length === 0 && !this.last?.blending;
     }
 
     // --- loading ---------------------------------------------------------------------------------
@@ -489,7 +555,8 @@ export class StrataProgressivePlugin {
     /// chunk first).
     pump() {
         const json = this.parser.json;
-        const viewOf = (w) => json.meshes[w.controller.ext.clusters[w.cluster].mesh].primitives[0].extensions[kDraco].bufferView;
+        const viewOf = (w) =>
+            json.meshes[w.controller.ext.clusters[w.cluster].mesh].primitives[0].extensions[kDraco].bufferView;
         while (this.queue.length > 0 && this.decoding < this.options.maxDecodes) {
             const first = this.queue[0];
             if (first.controller.state[first.cluster] !== 0) {
@@ -505,14 +572,23 @@ export class StrataProgressivePlugin {
                 const buffer = json.bufferViews[viewOf(first)].buffer;
                 let lo = json.bufferViews[viewOf(first)].byteOffset ?? 0;
                 let hi = lo + json.bufferViews[viewOf(first)].byteLength;
-                for (let i = 0; i < this.queue.length && i < 256 && this.decoding + batch.length < this.options.maxDecodes; ++i) {
+                for (
+                    let i = 0;
+                    i < this.queue.length && i < 256 && this.decoding + batch.length < this.options.maxDecodes;
+                    ++i
+                ) {
                     const w = this.queue[i];
                     if (w.controller.state[w.cluster] !== 0 || this.viewBytes.has(viewOf(w))) continue;
                     const def = json.bufferViews[viewOf(w)];
                     const a = def.byteOffset ?? 0;
                     const b = a + def.byteLength;
-                    if (def.buffer !== buffer || a - hi > this.options.maxRangeGap || lo - b > this.options.maxRangeGap ||
-                        Math.max(hi, b) - Math.min(lo, a) > this.options.maxRangeBytes) continue;
+                    if (
+                        def.buffer !== buffer ||
+                        a - hi > this.options.maxRangeGap ||
+                        lo - b > this.options.maxRangeGap ||
+                        Math.max(hi, b) - Math.min(lo, a) > this.options.maxRangeBytes
+                    )
+                        continue;
                     lo = Math.min(lo, a);
                     hi = Math.max(hi, b);
                     batch.push(w);
@@ -564,27 +640,32 @@ export class StrataProgressivePlugin {
                     this.stats.chunkBytesLoaded += def.byteLength;
                 }
                 this.stash(range.buffer, range.start, bytes);
-                this.pump();  // the request slot is free
+                this.pump(); // the request slot is free
             }
-            await Promise.all(batch.map(async ({ controller, cluster }) => {
-                try {
-                    const mesh = await this.parser.getDependency('mesh', controller.ext.clusters[cluster].mesh);
-                    if (!mesh?.isMesh) throw new Error('not one mesh');
-                    controller.attach(cluster, mesh);
-                    ++this.stats.chunksLoaded;
-                    this.options.onChange?.(controller, cluster);
-                } catch (error) {
-                    controller.state[cluster] = 3;
-                    ++this.stats.failures;
-                    this.errors.push(`${controller.name} cluster ${cluster}: ${error.message ?? error}`);
-                    console.error(`${kExtension}: ${controller.name} cluster ${cluster}: ${error.message ?? error}`);
-                } finally {
-                    done();
-                }
-            }));
+            await Promise.all(
+                batch.map(async ({ controller, cluster }) => {
+                    try {
+                        const mesh = await this.parser.getDependency('mesh', controller.ext.clusters[cluster].mesh);
+                        if (!mesh?.isMesh) throw new Error('not one mesh');
+                        controller.attach(cluster, mesh);
+                        ++this.stats.chunksLoaded;
+                        this.options.onChange?.(controller, cluster);
+                    } catch (error) {
+                        controller.state[cluster] = 3;
+                        ++this.stats.failures;
+                        this.errors.push(`${controller.name} cluster ${cluster}: ${error.message ?? error}`);
+                        console.error(
+                            `${kExtension}: ${controller.name} cluster ${cluster}: ${error.message ?? error}`,
+                        );
+                    } finally {
+                        done();
+                    }
+                }),
+            );
         } catch (error) {
             // the fetch failed: nothing of the batch was decoded
-            for (const { controller, cluster } of batch) if (controller.state[cluster] === 1) controller.state[cluster] = 3;
+            for (const { controller, cluster } of batch)
+                if (controller.state[cluster] === 1) controller.state[cluster] = 3;
             this.stats.failures += batch.length;
             this.errors.push(`${error.message ?? error}`);
             console.error(`${kExtension}: ${error.message ?? error}`);
@@ -640,27 +721,35 @@ function isShown(object) {
 /// only); prefixBytes: the size of the first request (GLB header and JSON; what it holds beyond
 /// them is kept, so it may also hold the base and chunks); returns the glTF result;
 /// result.userData.strata is the plugin.
-export async function loadStrataModel(url, { createLoader, pluginOptions = {}, fetch: fetchFn = null, prefixBytes = 64 * 1024 } = {}) {
+export async function loadStrataModel(
+    url,
+    { createLoader, pluginOptions = {}, fetch: fetchFn = null, prefixBytes = 64 * 1024 } = {},
+) {
     const doFetch = fetchFn ?? globalThis.fetch.bind(globalThis);
     const absolute = new URL(url, globalThis.location?.href ?? undefined).href;
     const basePath = LoaderUtils.extractUrlBase(absolute);
-    if (!(Number.isInteger(prefixBytes) && prefixBytes >= 20)) throw new Error(`prefixBytes ${prefixBytes}: expected an integer >= 20 (the GLB header)`);
+    if (!(Number.isInteger(prefixBytes) && prefixBytes >= 20))
+        throw new Error(`prefixBytes ${prefixBytes}: expected an integer >= 20 (the GLB header)`);
     const kPrefix = prefixBytes;
     let bytesRead = 0;
     let requests = 0;
+    const ranges = []; // [url, start, end) read here
     const response = await doFetch(absolute, { headers: { Range: `bytes=0-${kPrefix - 1}` } });
     if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
     let prefix = await response.arrayBuffer();
     bytesRead += prefix.byteLength;
     ++requests;
+    ranges.push([absolute, 0, prefix.byteLength]);
     const partial = response.status === 206;
     const total = partial ? Number(response.headers.get('Content-Range')?.split('/')[1]) : prefix.byteLength;
     // appends bytes [prefix.byteLength, end) of the file to `prefix` (one Range request)
     const extendPrefix = async (end) => {
         const more = await doFetch(absolute, { headers: { Range: `bytes=${prefix.byteLength}-${end - 1}` } });
+        if (more.status !== 206) throw new Error(`${url}: HTTP ${more.status} for a range request`);
         const rest = await more.arrayBuffer();
         bytesRead += rest.byteLength;
         ++requests;
+        ranges.push([absolute, prefix.byteLength, prefix.byteLength + rest.byteLength]);
         const joined = new Uint8Array(prefix.byteLength + rest.byteLength);
         joined.set(new Uint8Array(prefix), 0);
         joined.set(new Uint8Array(rest), prefix.byteLength);
@@ -676,15 +765,18 @@ export async function loadStrataModel(url, { createLoader, pluginOptions = {}, f
         options.source = { kind: 'glb-range', url: absolute, binOffset: layout.binOffset, length: total, prefix };
         options.totalBytes = total;
     } else if (layout !== null) {
-        data = prefix;  // the whole GLB: in memory
+        data = prefix; // the whole GLB: in memory
         options.totalBytes = prefix.byteLength;
     } else {
         if (partial && prefix.byteLength < total) await extendPrefix(total);
         data = new TextDecoder().decode(prefix);
         const json = JSON.parse(data);
-        options.totalBytes = total + (json.buffers ?? []).reduce((s, b) => s + (b.uri && !b.uri.startsWith('data:') ? b.byteLength : 0), 0);
+        options.totalBytes =
+            total +
+            (json.buffers ?? []).reduce((s, b) => s + (b.uri && !b.uri.startsWith('data:') ? b.byteLength : 0), 0);
     }
     options.initialBytes = bytesRead;
+    options.initialRanges = ranges;
     const loader = createLoader();
     let plugin = null;
     loader.register((parser) => (plugin = new StrataProgressivePlugin(parser, options)));

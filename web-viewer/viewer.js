@@ -7,16 +7,20 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { loadStrataModel, StrataProgressivePlugin } from './strata-progressive.js';
+import { kExtension } from './strata-format.js';
 
 const kBackground = 0x1d2129;
-performance.setResourceTimingBufferSize?.(100000);  // every chunk request, for the benchmark
+performance.setResourceTimingBufferSize?.(100000); // every chunk request, for the benchmark
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
 
 // ------------------------------------------------------------------------------------------------
 // three.js setup
 
-const renderer = new THREE.WebGLRenderer({ antialias: params.get('aa') !== '0', preserveDrawingBuffer: params.has('preserve') });
+const renderer = new THREE.WebGLRenderer({
+    antialias: params.get('aa') !== '0',
+    preserveDrawingBuffer: params.has('preserve'),
+});
 renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
 renderer.setSize(window.innerWidth, window.innerHeight);
 $('view').appendChild(renderer.domElement);
@@ -50,6 +54,15 @@ function createLoader() {
 
 window.addEventListener('resize', () => {
     camera.aspect = window.innerWidth / window.innerHeight;
+    if (camera.view?.enabled)
+        camera.setViewOffset(
+            window.innerWidth,
+            window.innerHeight,
+            camera.view.offsetX,
+            0,
+            window.innerWidth,
+            window.innerHeight,
+        );
     camera.updateProjectionMatrix();
     renderer.setSize(window.innerWidth, window.innerHeight);
 });
@@ -65,9 +78,17 @@ const settings = {
     roiFactor: 8,
     roiRadiusMm: 15,
 };
-let roi = null;  // { center: [x, y, z] scene frame, radius (m), factor }
-const roiMarker = new THREE.Mesh(new THREE.SphereGeometry(1, 24, 12),
-    new THREE.MeshBasicMaterial({ color: 0xffd060, wireframe: true, transparent: true, opacity: 0.25, depthWrite: false }));
+let roi = null; // { center: [x, y, z] scene frame, radius (m), factor }
+const roiMarker = new THREE.Mesh(
+    new THREE.SphereGeometry(1, 24, 12),
+    new THREE.MeshBasicMaterial({
+        color: 0xffd060,
+        wireframe: true,
+        transparent: true,
+        opacity: 0.25,
+        depthWrite: false,
+    }),
+);
 roiMarker.visible = false;
 scene.add(roiMarker);
 
@@ -122,11 +143,11 @@ function setBudget(triangles) {
 // the model
 
 let gltf = null;
-let strata = null;  // the plugin of the current model (null for a file without the extension)
+let strata = null; // the plugin of the current model (null for a file without the extension)
 const timing = { start: performance.timeOrigin, loadStart: 0, loaded: 0, firstFrame: 0, refined: 0 };
-const frameTimes = [];    // intervals between consecutive animation frames that both rendered (ms)
-const renderStamps = [];  // performance.now() of every rendered frame
-const tickTimes = [];     // intervals between animation frames, rendered or not (main-thread jank)
+const frameTimes = []; // intervals between consecutive animation frames that both rendered (ms)
+const renderStamps = []; // performance.now() of every rendered frame
+const tickTimes = []; // intervals between animation frames, rendered or not (main-thread jank)
 let lastFrame = 0;
 
 async function openUrl(url) {
@@ -142,7 +163,10 @@ async function openFile(file) {
     $('message').textContent = `reading ${file.name} ...`;
     const buffer = await file.arrayBuffer();
     const loader = createLoader();
-    loader.register((parser) => new StrataProgressivePlugin(parser, { initialBytes: buffer.byteLength, totalBytes: buffer.byteLength }));
+    loader.register(
+        (parser) =>
+            new StrataProgressivePlugin(parser, { initialBytes: buffer.byteLength, totalBytes: buffer.byteLength }),
+    );
     const result = await new Promise((resolve, reject) => loader.parse(buffer, '', resolve, reject));
     show(result, file.name);
 }
@@ -177,17 +201,43 @@ function show(result, name) {
 }
 
 /// Anterior view of the whole scene (glTF X = patient left, Y = superior, Z = anterior): the camera
-/// in front of the patient, looking posterior, superior up.
+/// in front of the patient, looking posterior, superior up, as close as it can be while every
+/// corner of the scene's bounding box (of the base meshes, exact) is inside the part of the canvas
+/// that the side panel leaves free, with a 5 % margin; the view is shifted so that this part's
+/// centre is the orbit target.
 function fitCamera() {
-    const sphere = strata ? strata.sceneSphere() : new THREE.Box3().setFromObject(gltf.scene).getBoundingSphere(new THREE.Sphere());
-    const radius = Math.max(sphere.radius, 1e-3);
-    const distance = radius / Math.sin(THREE.MathUtils.degToRad(camera.fov) / 2) * 1.05;
-    camera.position.copy(sphere.center).add(new THREE.Vector3(0, 0, distance));
+    gltf.scene.updateMatrixWorld(true);
+    const box = new THREE.Box3().setFromObject(gltf.scene);
+    if (box.isEmpty()) box.setFromCenterAndSize(new THREE.Vector3(), new THREE.Vector3(1, 1, 1));
+    const center = box.getCenter(new THREE.Vector3());
+    const radius = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1e-3);
+    const width = window.innerWidth;
+    const height = window.innerHeight;
+    // the free part of the canvas: right of the side panel (when the canvas is wide enough)
+    const panel = $('side').getBoundingClientRect();
+    const left = panel.right + 10 < width * 0.6 ? panel.right + 10 : 0;
+    const freeWidth = width - left;
+    camera.aspect = width / height;
+    if (left > 0) camera.setViewOffset(width, height, -left / 2, 0, width, height);
+    else camera.clearViewOffset();
+    const tanY = Math.tan(THREE.MathUtils.degToRad(camera.fov) / 2) * 0.95;
+    const tanX = tanY * (freeWidth / height);
+    // camera on +Z looking at -Z: a corner at (x, y, z) relative to the centre is inside when
+    // |x| <= tanX (d - z) and |y| <= tanY (d - z)
+    let distance = 0;
+    for (let i = 0; i < 8; ++i) {
+        const x = (i & 1 ? box.max.x : box.min.x) - center.x;
+        const y = (i & 2 ? box.max.y : box.min.y) - center.y;
+        const z = (i & 4 ? box.max.z : box.min.z) - center.z;
+        distance = Math.max(distance, z + Math.abs(x) / tanX, z + Math.abs(y) / tanY);
+    }
+    distance = Math.max(distance, radius * 0.01);
+    camera.position.copy(center).add(new THREE.Vector3(0, 0, distance));
     camera.up.set(0, 1, 0);
     camera.near = radius / 200;
     camera.far = distance + radius * 50;
     camera.updateProjectionMatrix();
-    controls.target.copy(sphere.center);
+    controls.target.copy(center);
     controls.minDistance = radius / 500;
     controls.update();
     $('roi-radius').max = String(Math.max(10, Math.round(radius * 1000)));
@@ -203,8 +253,11 @@ function objectColor(controller) {
 function buildObjectList() {
     const list = $('objects');
     list.textContent = '';
-    const items = strata ? strata.controllers.map((c) => ({ name: c.name, object: c.object, controller: c }))
-        : gltf.scene.children.flatMap((o) => (o.children.length ? o.children : [o])).map((o) => ({ name: o.name, object: o, controller: null }));
+    const items = strata
+        ? strata.controllers.map((c) => ({ name: c.name, object: c.object, controller: c }))
+        : gltf.scene.children
+              .flatMap((o) => (o.children.length ? o.children : [o]))
+              .map((o) => ({ name: o.name, object: o, controller: null }));
     for (const item of items) {
         const row = document.createElement('div');
         row.className = 'object';
@@ -214,7 +267,9 @@ function buildObjectList() {
         const name = document.createElement('span');
         name.className = 'name';
         name.textContent = item.name;
-        name.title = item.controller?.extras?.volume_ml ? `${item.name}: ${item.controller.extras.volume_ml.toFixed(1)} ml, label ${item.controller.extras.label}` : item.name;
+        name.title = item.controller?.extras?.volume_ml
+            ? `${item.name}: ${item.controller.extras.volume_ml.toFixed(1)} ml, label ${item.controller.extras.label}`
+            : item.name;
         const visible = document.createElement('input');
         visible.type = 'checkbox';
         visible.checked = item.object.visible;
@@ -319,14 +374,22 @@ function updateHud(now) {
     const drawn = renderer.info.render.triangles;
     if (strata) {
         const s = strata.stats;
-        lines.push(`triangles  ${formatCount(last?.triangles ?? 0)} of budget ${formatCount(settings.budget)}${last?.budgetLimited ? ' (full)' : ''}`);
-        lines.push(`loaded     ${formatBytes(s.bytesLoaded)} of ${formatBytes(s.bytesTotal)} (${Math.round(100 * s.bytesLoaded / Math.max(1, s.bytesTotal))}%)`);
-        lines.push(`chunks     ${s.chunksLoaded} of ${s.chunksTotal}, ${strata.inFlight} loading, ${strata.queue.length} queued`);
+        lines.push(
+            `triangles  ${formatCount(last?.triangles ?? 0)} of budget ${formatCount(settings.budget)}${last?.budgetLimited ? ' (full)' : ''}`,
+        );
+        lines.push(
+            `loaded     ${formatBytes(s.bytesLoaded)} of ${formatBytes(s.bytesTotal)} (${Math.round((100 * s.bytesLoaded) / Math.max(1, s.bytesTotal))}%)`,
+        );
+        lines.push(
+            `chunks     ${s.chunksLoaded} of ${s.chunksTotal}, ${strata.inFlight} loading, ${strata.queue.length} queued`,
+        );
         const px = last?.maxErrorPx ?? 0;
-        lines.push(`max error  ${Number.isFinite(px) ? px.toFixed(2) : 'inf'} px, ${((last?.maxError ?? 0) * 1000).toFixed(2)} mm`);
+        lines.push(
+            `max error  ${Number.isFinite(px) ? px.toFixed(2) : 'inf'} px, ${((last?.maxError ?? 0) * 1000).toFixed(2)} mm`,
+        );
         if (roi) lines.push(`region     ${formatCount(last?.roiTriangles ?? 0)} triangles, tau / ${roi.factor}`);
     } else if (gltf) {
-        lines.push(`triangles  ${formatCount(drawn)} (no ${'STRATA_progressive_mesh'}: drawn as is)`);
+        lines.push(`triangles  ${formatCount(drawn)} (no ${kExtension}: drawn as is)`);
     }
     const recent = frameTimes.slice(-30);
     if (recent.length > 1) {
@@ -339,9 +402,12 @@ function updateHud(now) {
 const axesCanvas = $('axes');
 const axesContext = axesCanvas.getContext('2d');
 const kAxes = [
-    { v: [1, 0, 0], label: 'L', color: '#e8655a' }, { v: [-1, 0, 0], label: 'R', color: '#e8655a' },
-    { v: [0, 1, 0], label: 'S', color: '#6cc46a' }, { v: [0, -1, 0], label: 'I', color: '#6cc46a' },
-    { v: [0, 0, 1], label: 'A', color: '#5d9bec' }, { v: [0, 0, -1], label: 'P', color: '#5d9bec' },
+    { v: [1, 0, 0], label: 'L', color: '#e8655a' },
+    { v: [-1, 0, 0], label: 'R', color: '#e8655a' },
+    { v: [0, 1, 0], label: 'S', color: '#6cc46a' },
+    { v: [0, -1, 0], label: 'I', color: '#6cc46a' },
+    { v: [0, 0, 1], label: 'A', color: '#5d9bec' },
+    { v: [0, 0, -1], label: 'P', color: '#5d9bec' },
 ];
 
 /// The patient axes as seen by the camera (glTF X = left, Y = superior, Z = anterior).
@@ -355,8 +421,11 @@ function drawAxes() {
     ctx.arc(c, c, c - 2, 0, 2 * Math.PI);
     ctx.fill();
     const inverse = camera.quaternion.clone().invert();
-    const sceneRotation = gltf ? new THREE.Quaternion().setFromRotationMatrix(gltf.scene.matrixWorld) : new THREE.Quaternion();
-    const items = kAxes.map((a) => ({ ...a, p: new THREE.Vector3(...a.v).applyQuaternion(sceneRotation).applyQuaternion(inverse) }))
+    const sceneRotation = gltf
+        ? new THREE.Quaternion().setFromRotationMatrix(gltf.scene.matrixWorld)
+        : new THREE.Quaternion();
+    const items = kAxes
+        .map((a) => ({ ...a, p: new THREE.Vector3(...a.v).applyQuaternion(sceneRotation).applyQuaternion(inverse) }))
         .sort((a, b) => a.p.z - b.p.z);
     ctx.font = 'bold 26px system-ui, sans-serif';
     ctx.textAlign = 'center';
@@ -388,10 +457,10 @@ const lastView = new THREE.Matrix4();
 const lastProjection = new THREE.Matrix4();
 for (const type of ['input', 'change', 'click', 'resize']) window.addEventListener(type, () => (dirty = true), true);
 controls.addEventListener('change', () => (dirty = true));
-let rendered = false;  // whether the previous tick rendered (frame times are between rendered frames)
-let cutChanged = false;  // the cut changed since the last drawn frame
+let rendered = false; // whether the previous tick rendered (frame times are between rendered frames)
+let cutChanged = false; // the cut changed since the last drawn frame
 let lastRender = 0;
-let renderInterval = 16;  // recent time between consecutive drawn frames (ms)
+let renderInterval = 16; // recent time between consecutive drawn frames (ms)
 
 function frame(now) {
     controls.update();
@@ -403,7 +472,11 @@ function frame(now) {
     }
     if (strata) {
         const height = renderer.getDrawingBufferSize(new THREE.Vector2()).y;
-        last = strata.update(camera, height, settings.tau, settings.budget, { roi, morph: settings.morph, cull: settings.cull });
+        last = strata.update(camera, height, settings.tau, settings.budget, {
+            roi,
+            morph: settings.morph,
+            cull: settings.cull,
+        });
         if (last.changed || last.blending) cutChanged = true;
     }
     // A change of the cut alone (chunks arriving) is drawn at most every 2 frame times: where
@@ -450,25 +523,52 @@ function nextFrame() {
 }
 
 window.strataViewer = {
-    THREE, renderer, scene, camera, controls, settings, timing, frameTimes, renderStamps, tickTimes, errors, renderedFrames: 0,
+    THREE,
+    renderer,
+    scene,
+    camera,
+    controls,
+    settings,
+    timing,
+    frameTimes,
+    renderStamps,
+    tickTimes,
+    errors,
+    renderedFrames: 0,
     /// Draws the next frame even if nothing changed.
-    redraw() { dirty = true; },
-    get gltf() { return gltf; },
-    get strata() { return strata; },
+    redraw() {
+        dirty = true;
+    },
+    get gltf() {
+        return gltf;
+    },
+    get strata() {
+        return strata;
+    },
     ready: null,
     /// Counts of the last frame and of the loading.
     state() {
         const s = strata?.stats ?? {};
         return {
             loaded: gltf !== null,
-            triangles: strata ? last?.triangles ?? 0 : renderer.info.render.triangles,
+            triangles: strata ? (last?.triangles ?? 0) : renderer.info.render.triangles,
             rendererTriangles: renderer.info.render.triangles,
-            bytesLoaded: s.bytesLoaded ?? 0, bytesTotal: s.bytesTotal ?? 0, requests: s.requests ?? 0,
-            chunksLoaded: s.chunksLoaded ?? 0, chunksTotal: s.chunksTotal ?? 0, failures: s.failures ?? 0,
-            inFlight: strata?.inFlight ?? 0, queued: strata?.queue.length ?? 0, idle: strata ? strata.idle : true,
-            maxErrorPx: last?.maxErrorPx ?? null, maxErrorMm: (last?.maxError ?? 0) * 1000,
-            budgetLimited: last?.budgetLimited ?? false, roi, roiTriangles: last?.roiTriangles ?? 0,
-            hud: $('hud').textContent, objects: strata?.controllers.map((c) => c.name) ?? [],
+            bytesLoaded: s.bytesLoaded ?? 0,
+            bytesTotal: s.bytesTotal ?? 0,
+            requests: s.requests ?? 0,
+            chunksLoaded: s.chunksLoaded ?? 0,
+            chunksTotal: s.chunksTotal ?? 0,
+            failures: s.failures ?? 0,
+            inFlight: strata?.inFlight ?? 0,
+            queued: strata?.queue.length ?? 0,
+            idle: strata ? strata.idle : true,
+            maxErrorPx: last?.maxErrorPx ?? null,
+            maxErrorMm: (last?.maxError ?? 0) * 1000,
+            budgetLimited: last?.budgetLimited ?? false,
+            roi,
+            roiTriangles: last?.roiTriangles ?? 0,
+            hud: $('hud').textContent,
+            objects: strata?.controllers.map((c) => c.name) ?? [],
             cameraDistance: camera.position.distanceTo(controls.target),
             timing: { ...timing },
         };
@@ -483,7 +583,11 @@ window.strataViewer = {
         const offset = camera.position.clone().sub(controls.target);
         const spherical = new THREE.Spherical().setFromVector3(offset);
         spherical.theta += THREE.MathUtils.degToRad(azimuthDeg);
-        spherical.phi = THREE.MathUtils.clamp(spherical.phi - THREE.MathUtils.degToRad(elevationDeg), 0.01, Math.PI - 0.01);
+        spherical.phi = THREE.MathUtils.clamp(
+            spherical.phi - THREE.MathUtils.degToRad(elevationDeg),
+            0.01,
+            Math.PI - 0.01,
+        );
         camera.position.copy(controls.target).add(new THREE.Vector3().setFromSpherical(spherical));
         camera.lookAt(controls.target);
         controls.update();
@@ -498,15 +602,21 @@ window.strataViewer = {
     fit: () => fitCamera(),
     setTau,
     setBudget,
-    setMorph(on) { $('morph').checked = on; settings.morph = on; },
-    setColorByLevel(on) { $('levels').checked = on; $('levels').dispatchEvent(new Event('change')); },
+    setMorph(on) {
+        $('morph').checked = on;
+        settings.morph = on;
+    },
+    setColorByLevel(on) {
+        $('levels').checked = on;
+        $('levels').dispatchEvent(new Event('change'));
+    },
     roiAt,
     clearRoi: () => setRoi(null),
     /// Projects a scene-frame point to client pixels.
     project(point) {
         const p = new THREE.Vector3(...point).applyMatrix4(gltf.scene.matrixWorld).project(camera);
         const rect = renderer.domElement.getBoundingClientRect();
-        return { x: rect.left + (p.x + 1) / 2 * rect.width, y: rect.top + (1 - p.y) / 2 * rect.height };
+        return { x: rect.left + ((p.x + 1) / 2) * rect.width, y: rect.top + ((1 - p.y) / 2) * rect.height };
     },
     /// Resolves when nothing is loading or queued, no blend runs and the last change is drawn,
     /// for `frames` frames in a row.
@@ -559,9 +669,12 @@ window.strataViewer = {
         const ctx = canvas.getContext('2d');
         ctx.drawImage(source, 0, 0);
         const { data, width, height } = ctx.getImageData(0, 0, canvas.width, canvas.height);
-        const ref = [(kBackground >> 16) & 255, (kBackground >> 8) & 255, kBackground & 255];  // sRGB, as drawn
+        const ref = [(kBackground >> 16) & 255, (kBackground >> 8) & 255, kBackground & 255]; // sRGB, as drawn
         let foreground = 0;
-        let minX = width, minY = height, maxX = -1, maxY = -1;
+        let minX = width,
+            minY = height,
+            maxX = -1,
+            maxY = -1;
         const hues = new Map();
         const color = new THREE.Color();
         const hsl = {};
@@ -571,7 +684,10 @@ window.strataViewer = {
                 const d = Math.abs(data[i] - ref[0]) + Math.abs(data[i + 1] - ref[1]) + Math.abs(data[i + 2] - ref[2]);
                 if (d <= 24) continue;
                 ++foreground;
-                minX = Math.min(minX, x); maxX = Math.max(maxX, x); minY = Math.min(minY, y); maxY = Math.max(maxY, y);
+                minX = Math.min(minX, x);
+                maxX = Math.max(maxX, x);
+                minY = Math.min(minY, y);
+                maxY = Math.max(maxY, y);
                 color.setRGB(data[i] / 255, data[i + 1] / 255, data[i + 2] / 255);
                 color.getHSL(hsl);
                 if (hsl.s > 0.25 && hsl.l > 0.1) {
@@ -580,13 +696,26 @@ window.strataViewer = {
                 }
             }
         }
-        return { width, height, foreground: foreground / (width * height), box: [minX, minY, maxX, maxY],
-                 hues: Object.fromEntries(hues), background: ref };
+        return {
+            width,
+            height,
+            foreground: foreground / (width * height),
+            box: [minX, minY, maxX, maxY],
+            hues: Object.fromEntries(hues),
+            background: ref,
+        };
     },
 };
 
 const model = params.get('model');
-window.strataViewer.ready = model ? openUrl(model).then(nextFrame).then(() => true).catch((e) => { reportError(e); return false; })
+window.strataViewer.ready = model
+    ? openUrl(model)
+          .then(nextFrame)
+          .then(() => true)
+          .catch((e) => {
+              reportError(e);
+              return false;
+          })
     : Promise.resolve(false);
 if (params.has('tau')) setTau(Number(params.get('tau')));
 if (params.has('budget')) setBudget(Number(params.get('budget')));

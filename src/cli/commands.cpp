@@ -18,6 +18,7 @@
 #include "core/report.h"
 #include "debug/draw_contours.h"
 #include "debug/draw_medial.h"
+#include "exporters/lod_gltf.h"
 #include "exporters/progressive_gltf.h"
 #include "exporters/read_progressive_gltf.h"
 #include "exporters/scene_gltf.h"
@@ -26,6 +27,7 @@
 #include "input/write_slice_stack.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/mesh_io.h"
+#include "mesh/shading_normals.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
 
@@ -355,7 +357,15 @@ int write_extracted(const ExtractOptions& options,
     return 0;
 }
 
-/// `strata extract FILE.glb`: one cut of every object of a progressive file.
+/// True when `a` and `b` are equal but for the case of ASCII letters.
+bool same_text_ignoring_case(const std::string& a, const std::string& b) {
+    return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](unsigned char x, unsigned char y) {
+        return std::tolower(x) == std::tolower(y);
+    });
+}
+
+/// `strata extract FILE.glb`: one cut of every object of a progressive file (or of those
+/// `--labels` selects).
 int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
     if (bound.in_pixels) {
         throw Error(ErrorCode::InvalidInput,
@@ -365,10 +375,38 @@ int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
     }
     const ProgressiveFile file = read_progressive_gltf(options.input);
     const double max_error_m = bound.value / 1000.0;
+    // --labels: each selector a label value ("6") or an object name (case-insensitive), as for
+    // label stacks; one that matches no object is an error naming the available ones.
+    std::vector<bool> wanted(file.objects.size(), options.labels.empty());
+    for (const std::string& selector : options.labels) {
+        bool found = false;
+        for (std::size_t i = 0; i < file.objects.size(); ++i) {
+            const ProgressiveFileObject& object = file.objects[i];
+            if ((object.label >= 0 && std::to_string(object.label) == selector) ||
+                same_text_ignoring_case(object.name, selector)) {
+                wanted[i] = true;
+                found = true;
+            }
+        }
+        if (!found) {
+            std::string available;
+            for (const ProgressiveFileObject& object : file.objects) {
+                available += (available.empty() ? "" : ", ") + std::to_string(object.label) + " (" +
+                             object.name + ")";
+            }
+            throw Error(ErrorCode::InvalidInput,
+                        "--labels: '" + selector + "' matches no object of " + options.input +
+                            "; available: " + (available.empty() ? "none" : available));
+        }
+    }
     std::vector<SceneObject> scene;
     Json objects = Json::array();
     Report report;
-    for (const ProgressiveFileObject& object : file.objects) {
+    for (std::size_t i = 0; i < file.objects.size(); ++i) {
+        if (!wanted[i]) {
+            continue;
+        }
+        const ProgressiveFileObject& object = file.objects[i];
         const MultiresCut cut = select_cut_by_error(object.model, max_error_m);
         SceneObject out;
         out.name = object.name;
@@ -482,8 +520,109 @@ ErrorBound parse_error_bound(const std::string& text) {
     return bound;
 }
 
+namespace {
+
+/// `--lod-levels`: error bounds ("0.5mm,2mm,8mm", px allowed) or a count ("3"); none when empty.
+struct LodRequest {
+    bool wanted = false;
+    std::vector<ErrorBound> bounds;
+    unsigned count = 0;
+};
+
+LodRequest parse_lod_levels(const std::string& text) {
+    LodRequest request;
+    if (text.empty()) {
+        return request;
+    }
+    request.wanted = true;
+    const auto bad = [&](const std::string& why) {
+        return Error(ErrorCode::InvalidInput,
+                     "--lod-levels: '" + text + "' " + why +
+                         "; expected increasing error bounds with mm or px (e.g. 0.5mm,2mm,8mm) "
+                         "or a number of levels from 1 to 32 (e.g. 3)");
+    };
+    if (text.find_first_not_of("0123456789") == std::string::npos) {
+        const unsigned long count = text.size() > 3 ? 0 : std::stoul(text);
+        if (count < 1 || count > 32) {
+            throw bad("is not a level count");
+        }
+        request.count = static_cast<unsigned>(count);
+        return request;
+    }
+    std::stringstream in(text);
+    std::string item;
+    while (std::getline(in, item, ',')) {
+        try {
+            request.bounds.push_back(parse_error_bound(item));
+        } catch (const Error&) {
+            throw bad("has a bound '" + item + "' that is not a number with mm or px");
+        }
+    }
+    if (request.bounds.empty() || text.back() == ',') {
+        throw bad("has an empty bound");
+    }
+    for (std::size_t i = 1; i < request.bounds.size(); ++i) {
+        const ErrorBound& a = request.bounds[i - 1];
+        const ErrorBound& b = request.bounds[i];
+        if (a.in_pixels == b.in_pixels && !(b.value > a.value)) {
+            throw bad("is not increasing");  // before the reconstruction; mixed units: after it
+        }
+    }
+    return request;
+}
+
+/// Writes OUTPUT/lods.glb for `request`; returns its summary.
+Json write_lods(const BuildOptions& options,
+                const LodRequest& request,
+                const std::vector<ProgressiveObject>& progressive,
+                const SliceFrame& frame,
+                const SceneInfo& info) {
+    LodOptions lod;
+    lod.level_count = request.count;
+    for (const ErrorBound& b : request.bounds) {
+        lod.error_mm.push_back(b.in_pixels ? b.value * frame.error_mm_per_px : b.value);
+    }
+    for (std::size_t i = 1; i < lod.error_mm.size(); ++i) {
+        if (!(lod.error_mm[i] > lod.error_mm[i - 1])) {
+            throw Error(ErrorCode::InvalidInput,
+                        "--lod-levels: '" + options.lod_levels + "': bound " +
+                            std::to_string(i + 1) +
+                            " is not larger than the one before; expected increasing bounds");
+        }
+    }
+    lod.compression =
+        options.lod_compression == "meshopt" ? LodCompression::Meshopt : LodCompression::Draco;
+    std::vector<LodObject> objects;
+    for (const ProgressiveObject& p : progressive) {
+        objects.push_back({p.name, p.label, p.srgb, p.model});
+    }
+    const std::filesystem::path file = options.output_dir / "lods.glb";
+    const LodStats stats = write_lod_gltf(file, objects, frame, info, lod);
+    Json j = {{"file", file.string()},
+              {"compression", options.lod_compression},
+              {"total_bytes", stats.total_bytes}};
+    Json list = Json::array();
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        Json levels = Json::array();
+        for (const LodLevelStats& l : stats.objects[o]) {
+            levels.push_back({{"error_mm", l.error_mm},
+                              {"triangles", l.triangles},
+                              {"vertices", l.vertices},
+                              {"bytes", l.bytes},
+                              {"model_level", l.model_level}});
+        }
+        list.push_back(
+            {{"name", objects[o].name}, {"label", objects[o].label}, {"levels", levels}});
+    }
+    j["objects"] = list;
+    return j;
+}
+
+}  // namespace
+
 int run_build(const BuildOptions& options) {
     const auto start = Clock::now();
+    const LodRequest lod_request = parse_lod_levels(options.lod_levels);
     Report report;
     TerminalProgress progress(options.output.quiet || options.output.json);
     const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
@@ -536,7 +675,9 @@ int run_build(const BuildOptions& options) {
         const std::filesystem::path mesh_file =
             options.output_dir / "meshes" / (stem + "." + options.mesh_format);
         if (!object.mesh.triangles.empty()) {
-            write_mesh(object.mesh, mesh_file);
+            write_mesh(
+                object.mesh, mesh_file,
+                options.mesh_format == "stl" ? std::vector<Vec3>{} : shading_normals(object.mesh));
         }
         Json genus = Json::array();
         for (const int g : component_genera(check)) {
@@ -619,6 +760,16 @@ int run_build(const BuildOptions& options) {
                                              slice_frame(stack, result.slice_spacing_px), info,
                                              export_options);
     }
+    Json lods_json;
+    if (lod_request.wanted && !progressive.empty()) {
+        SceneInfo info;
+        info.source = stack.source;
+        const Vec3 spacing = stack.spacing_mm();
+        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
+        info.generator = "strata 0.1.0";
+        lods_json = write_lods(options, lod_request, progressive,
+                               slice_frame(stack, result.slice_spacing_px), info);
+    }
     const double export_seconds = seconds_since(export_start);
 
     const std::filesystem::path scene_file = options.output_dir / "scene.glb";
@@ -698,6 +849,9 @@ int run_build(const BuildOptions& options) {
                             {"chunk_bytes", model_stats.chunk_bytes},
                             {"chunks", model_stats.chunks}};
     }
+    if (!lods_json.is_null()) {
+        summary["lods"] = lods_json;
+    }
     summary["output_dir"] = options.output_dir.string();
     Json timings = {{"input", input_seconds}};
     for (const StageTiming& t : result.timings) {
@@ -758,6 +912,10 @@ int run_build(const BuildOptions& options) {
         }
         if (any_triangles) {
             std::cout << "scene: " << scene_file.string() << '\n';
+        }
+        if (!lods_json.is_null()) {
+            std::cout << "lods: " << lods_json["file"].get<std::string>() << " ("
+                      << lods_json["total_bytes"] << " bytes, " << options.lod_compression << ")\n";
         }
         std::cout << "timings: input " << input_seconds << " s";
         for (const StageTiming& t : result.timings) {

@@ -31,6 +31,10 @@ struct BuildOptions {
     /// The progressive scene OUTPUT/model.<format>: "glb" (one file) or "gltf" (JSON, base
     /// buffer and one buffer file per level, for HTTP range requests).
     std::string model_format = "glb";
+    /// --lod-levels: OUTPUT/lods.glb (MSFT_lod) with levels at these bounds ("0.5mm,2mm,8mm",
+    /// px allowed) or this many levels ("3"); empty: not written.
+    std::string lod_levels;
+    std::string lod_compression = "draco";  ///< --lod-compression: draco or meshopt
     OutputOptions output;
 };
 

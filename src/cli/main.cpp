@@ -86,6 +86,15 @@ int main(int argc, char** argv) {
                      "Target triangles per cluster of the multiresolution model")
         ->check(CLI::Range(std::size_t{16}, std::size_t{1} << 20))
         ->capture_default_str();
+    build_cmd->add_option("--lod-levels", build.lod_levels,
+                          "Also write OUTPUT/lods.glb (MSFT_lod, _LOD<i> node names): levels at "
+                          "these error bounds (e.g. 0.5mm,2mm,8mm) or this many levels (e.g. 3)");
+    build_cmd
+        ->add_option("--lod-compression", build.lod_compression,
+                     "Compression of lods.glb: draco (KHR_draco_mesh_compression) or meshopt "
+                     "(EXT_meshopt_compression)")
+        ->check(CLI::IsMember({"draco", "meshopt"}))
+        ->capture_default_str();
     add_output_flags(*build_cmd, build.output);
 
     strata::cli::PhantomCommandOptions phantom;

@@ -250,19 +250,52 @@ std::vector<std::array<float, 3>> checked_float_positions(const TriMesh& mesh,
     return out;
 }
 
-std::string encode_ply(const TriMesh& mesh, const std::vector<std::array<float, 3>>& positions) {
+/// Normals as float32, checked: one per vertex (or none), finite.
+std::vector<std::array<float, 3>> checked_float_normals(const TriMesh& mesh,
+                                                        const std::vector<Vec3>& normals,
+                                                        const std::filesystem::path& path) {
+    if (!normals.empty() && normals.size() != mesh.positions.size()) {
+        fail(ErrorCode::InvalidInput, path,
+             "cannot write " + std::to_string(normals.size()) + " normals for " +
+                 std::to_string(mesh.positions.size()) + " vertices, expected one per vertex");
+    }
+    std::vector<std::array<float, 3>> out(normals.size());
+    for (std::size_t v = 0; v < normals.size(); ++v) {
+        for (int k = 0; k < 3; ++k) {
+            const double x = normals[v][k];
+            if (!(std::abs(x) <= 1.0 + 1e-6)) {
+                fail(ErrorCode::InvalidInput, path,
+                     "cannot write the normal of vertex " + std::to_string(v) + ": component " +
+                         std::to_string(x) + ", expected a unit vector");
+            }
+            out[v][k] = static_cast<float>(x);
+        }
+    }
+    return out;
+}
+
+std::string encode_ply(const TriMesh& mesh,
+                       const std::vector<std::array<float, 3>>& positions,
+                       const std::vector<std::array<float, 3>>& normals) {
     const bool labelled = !mesh.labels.empty();
     std::string out =
         "ply\nformat binary_little_endian 1.0\ncomment written by strata\nelement vertex " +
         std::to_string(positions.size()) +
-        "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
-        std::to_string(mesh.triangles.size()) + "\nproperty list uchar uint vertex_indices\n" +
+        "\nproperty float x\nproperty float y\nproperty float z" +
+        (normals.empty() ? "" : "\nproperty float nx\nproperty float ny\nproperty float nz") +
+        "\nelement face " + std::to_string(mesh.triangles.size()) +
+        "\nproperty list uchar uint vertex_indices\n" +
         (labelled ? "property ushort label\n" : "") + "end_header\n";
     out.reserve(out.size() + 12 * positions.size() + (labelled ? 15 : 13) * mesh.triangles.size());
-    for (const auto& p : positions) {
-        store_f32(out, p[0]);
-        store_f32(out, p[1]);
-        store_f32(out, p[2]);
+    for (std::size_t v = 0; v < positions.size(); ++v) {
+        for (int k = 0; k < 3; ++k) {
+            store_f32(out, positions[v][std::size_t(k)]);
+        }
+        if (!normals.empty()) {
+            for (int k = 0; k < 3; ++k) {
+                store_f32(out, normals[v][std::size_t(k)]);
+            }
+        }
     }
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         out.push_back(3);
@@ -282,23 +315,32 @@ void append_float(std::string& out, float value) {
     out.append(buffer, end);
 }
 
-std::string encode_obj(const TriMesh& mesh, const std::vector<std::array<float, 3>>& positions) {
+std::string encode_obj(const TriMesh& mesh,
+                       const std::vector<std::array<float, 3>>& positions,
+                       const std::vector<std::array<float, 3>>& normals) {
     std::string out = "# written by strata: " + std::to_string(positions.size()) + " vertices, " +
                       std::to_string(mesh.triangles.size()) + " triangles\n";
     out.reserve(out.size() + 36 * positions.size() + 24 * mesh.triangles.size());
-    for (const auto& p : positions) {
-        out += "v ";
-        append_float(out, p[0]);
-        out += ' ';
-        append_float(out, p[1]);
-        out += ' ';
-        append_float(out, p[2]);
-        out += '\n';
-    }
+    auto append_rows = [&](const char* keyword, const std::vector<std::array<float, 3>>& rows) {
+        for (const auto& p : rows) {
+            out += keyword;
+            append_float(out, p[0]);
+            out += ' ';
+            append_float(out, p[1]);
+            out += ' ';
+            append_float(out, p[2]);
+            out += '\n';
+        }
+    };
+    append_rows("v ", positions);
+    append_rows("vn ", normals);
     for (const Triangle& t : mesh.triangles) {
-        out += "f " + std::to_string(std::uint64_t{t[0]} + 1) + ' ' +
-               std::to_string(std::uint64_t{t[1]} + 1) + ' ' +
-               std::to_string(std::uint64_t{t[2]} + 1) + '\n';
+        out += 'f';
+        for (const std::uint32_t v : t) {
+            const std::string index = std::to_string(std::uint64_t{v} + 1);
+            out += ' ' + index + (normals.empty() ? "" : "//" + index);
+        }
+        out += '\n';
     }
     return out;
 }
@@ -1143,7 +1185,9 @@ TriMesh read_stl(std::string_view data, const std::filesystem::path& path) {
 
 }  // namespace
 
-void write_mesh(const TriMesh& mesh, const std::filesystem::path& path) {
+void write_mesh(const TriMesh& mesh,
+                const std::filesystem::path& path,
+                const std::vector<Vec3>& normals) {
     const std::string ext = lowercase_extension(path);
     if (ext != ".ply" && ext != ".obj" && ext != ".stl") {
         fail(ErrorCode::Unsupported, path,
@@ -1151,10 +1195,11 @@ void write_mesh(const TriMesh& mesh, const std::filesystem::path& path) {
                  ", expected .ply, .obj or .stl");
     }
     const auto positions = checked_float_positions(mesh, path);
+    const auto float_normals = checked_float_normals(mesh, normals, path);
     std::string bytes;
     try {
-        bytes = ext == ".ply"   ? encode_ply(mesh, positions)
-                : ext == ".obj" ? encode_obj(mesh, positions)
+        bytes = ext == ".ply"   ? encode_ply(mesh, positions, float_normals)
+                : ext == ".obj" ? encode_obj(mesh, positions, float_normals)
                                 : encode_stl(mesh, positions);
     } catch (const Error& e) {
         fail(e.code(), path, e.what());

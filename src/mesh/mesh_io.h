@@ -1,6 +1,7 @@
 #pragma once
 
 #include <filesystem>
+#include <vector>
 
 #include "mesh/tri_mesh.h"
 
@@ -14,12 +15,17 @@ namespace strata {
 /// decimal that rounds to the same float32 (at most 9 significant digits; read back: the
 /// double nearest that decimal, which rounds to the same float32).
 /// What is kept: PLY keeps vertex order, triangles and labels (face property `label`,
-/// ushort); OBJ keeps vertex order and triangles; STL keeps only the triangle corners (readers
+/// ushort); OBJ keeps vertex order and triangles; `normals` (empty, or one unit vector per
+/// vertex, e.g. `shading_normals`) go to PLY as float vertex properties nx, ny, nz and to OBJ
+/// as `vn` lines referenced by `f a//a b//b c//c`; STL keeps only the triangle corners (readers
 /// weld equal corners again, so vertex order and unreferenced vertices are lost).
 /// \throw Error{Unsupported} for another extension; Error{InvalidInput} if a triangle index is
-///        out of range, labels are neither empty nor one per triangle, or a coordinate is not
-///        finite as float32; Error{Io} if the file cannot be written (the old one is kept).
-void write_mesh(const TriMesh& mesh, const std::filesystem::path& path);
+///        out of range, labels are neither empty nor one per triangle, normals are neither empty
+///        nor one per vertex or have a component outside [-1, 1], or a coordinate is not finite
+///        as float32; Error{Io} if the file cannot be written (the old one is kept).
+void write_mesh(const TriMesh& mesh,
+                const std::filesystem::path& path,
+                const std::vector<Vec3>& normals = {});
 
 /// Reads a mesh written by `write_mesh` or by other tools, chosen by the extension of `path`:
 /// - `.ply`: ASCII or binary little-endian; vertex x, y, z of any scalar type, faces as a list

@@ -325,14 +325,32 @@ TEST(Cli, BuildReadsEverySharedDataInput) {
 
 TEST(Cli, LabelSelectionByName) {
     const fs::path data = test::shared_data_dir() / "totalsegmentator_abdomen";
+    const fs::path out = test::fresh_temp_dir("cli_labels");
     const CliRun r = run_cli({"build", (data / "example_seg.nii.gz").string(), "--color-table",
                               (data / "class_map_total.json").string(), "--labels", "liver,spleen",
-                              "-o", test::fresh_temp_dir("cli_labels").string(), "--json"});
+                              "-o", out.string(), "--json"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const nlohmann::json labels = nlohmann::json::parse(r.out).at("input").at("labels");
     ASSERT_EQ(labels.size(), 2u);
     EXPECT_EQ(labels[0].at("name"), "spleen");
     EXPECT_EQ(labels[1].at("name"), "liver");
+    // extract selects the objects of a progressive file the same way: by name or by value
+    for (const std::string& selector : {std::string("LIVER"), labels[1].at("value").dump()}) {
+        const CliRun one =
+            run_cli({"extract", (out / "model.glb").string(), "--labels", selector, "--max-error",
+                     "5mm", "-o", (out / "one.ply").string(), "--json"});
+        ASSERT_EQ(one.exit_code, 0) << one.err;
+        const nlohmann::json objects = nlohmann::json::parse(one.out).at("objects");
+        ASSERT_EQ(objects.size(), 1u) << selector;
+        EXPECT_EQ(objects[0].at("name"), "liver");
+        const TriMesh mesh = read_mesh(out / "one.ply");
+        EXPECT_EQ(mesh.triangles.size(), objects[0].at("triangles").get<std::size_t>());
+        EXPECT_TRUE(is_closed_manifold(check_mesh(mesh)));
+    }
+    const CliRun unknown = run_cli({"extract", (out / "model.glb").string(), "--labels", "kidney",
+                                    "-o", (out / "none.ply").string()});
+    EXPECT_EQ(unknown.exit_code, 2);
+    EXPECT_NE(unknown.err.find("matches no object"), std::string::npos) << unknown.err;
     const CliRun bad =
         run_cli({"build", (data / "example_seg.nii.gz").string(), "--labels", "no_such_organ", "-o",
                  test::fresh_temp_dir("cli_labels_bad").string()});

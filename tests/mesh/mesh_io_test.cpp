@@ -1,10 +1,12 @@
 #include "mesh/mesh_io.h"
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -120,6 +122,88 @@ TEST_F(MeshIo, ObjRoundTripIsExactAtFloatPrecision) {
     }
     EXPECT_EQ(back.triangles, mesh.triangles);
     EXPECT_TRUE(back.labels.empty());
+}
+
+/// Unit normals, one per vertex of `mesh`, not floats (sin/cos values).
+std::vector<Vec3> sample_normals(const TriMesh& mesh) {
+    std::vector<Vec3> normals;
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+        const double a = 0.37 * double(v);
+        normals.push_back({std::cos(a) * 0.6, std::sin(a) * 0.6, 0.8});
+    }
+    return normals;
+}
+
+TEST_F(MeshIo, PlyWritesNormalsAsVertexPropertiesAfterThePositions) {
+    const TriMesh mesh = sample_mesh();
+    const std::vector<Vec3> normals = sample_normals(mesh);
+    write_mesh(mesh, dir_ / "n.ply", normals);
+    const std::string bytes = read_bytes(dir_ / "n.ply");
+    const std::string header_end = "end_header\n";
+    const std::size_t body = bytes.find(header_end) + header_end.size();
+    const std::string header = bytes.substr(0, body);
+    EXPECT_NE(header.find("property float z\nproperty float nx\nproperty float ny\n"
+                          "property float nz\nelement face"),
+              std::string::npos)
+        << header;
+    for (std::size_t v = 0; v < normals.size(); ++v) {
+        for (int k = 0; k < 3; ++k) {
+            const float expected = static_cast<float>(normals[v][k]);
+            EXPECT_EQ(bytes.substr(body + 24 * v + 12 + 4 * std::size_t(k), 4), lef32(expected))
+                << "vertex " << v << " component " << k;
+        }
+    }
+    const TriMesh back = read_mesh(dir_ / "n.ply");  // readers skip the extra properties
+    ASSERT_EQ(back.positions.size(), mesh.positions.size());
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+        EXPECT_EQ(back.positions[v], rounded_to_float(mesh.positions[v])) << "vertex " << v;
+    }
+    EXPECT_EQ(back.triangles, mesh.triangles);
+    EXPECT_EQ(back.labels, mesh.labels);
+}
+
+TEST_F(MeshIo, ObjWritesNormalsAsVnReferencedByEveryCorner) {
+    const TriMesh mesh = sample_mesh();
+    const std::vector<Vec3> normals = sample_normals(mesh);
+    write_mesh(mesh, dir_ / "n.obj", normals);
+    std::ifstream in(dir_ / "n.obj");
+    std::string line;
+    std::size_t vn = 0;
+    std::size_t faces = 0;
+    while (std::getline(in, line)) {
+        if (line.rfind("vn ", 0) == 0) {
+            std::istringstream fields(line.substr(3));
+            double x = 0, y = 0, z = 0;
+            fields >> x >> y >> z;
+            ASSERT_LT(vn, normals.size());
+            EXPECT_EQ(float(x), float(normals[vn].x));
+            EXPECT_EQ(float(y), float(normals[vn].y));
+            EXPECT_EQ(float(z), float(normals[vn].z));
+            ++vn;
+        } else if (line.rfind("f ", 0) == 0) {
+            const auto& t = mesh.triangles[faces++];
+            std::string expected = "f";
+            for (const std::uint32_t v : t) {
+                expected += " " + std::to_string(v + 1) + "//" + std::to_string(v + 1);
+            }
+            EXPECT_EQ(line, expected);
+        }
+    }
+    EXPECT_EQ(vn, normals.size());
+    EXPECT_EQ(faces, mesh.triangles.size());
+    EXPECT_EQ(read_mesh(dir_ / "n.obj").triangles, mesh.triangles);
+}
+
+TEST_F(MeshIo, WriterRejectsNormalsOfTheWrongCountOrLength) {
+    const TriMesh mesh = sample_mesh();
+    std::vector<Vec3> normals = sample_normals(mesh);
+    normals.pop_back();
+    EXPECT_THROW(write_mesh(mesh, dir_ / "bad.ply", normals), Error);
+    normals = sample_normals(mesh);
+    normals[3] = {2.0, 0.0, 0.0};
+    EXPECT_THROW(write_mesh(mesh, dir_ / "bad.obj", normals), Error);
+    EXPECT_FALSE(fs::exists(dir_ / "bad.ply"));
+    EXPECT_FALSE(fs::exists(dir_ / "bad.obj"));
 }
 
 TEST_F(MeshIo, StlRoundTripKeepsCornersAndWeldsVertices) {

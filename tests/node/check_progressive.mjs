@@ -39,11 +39,22 @@ import { createRequire } from 'node:module';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
-const kExtension = 'STRATA_progressive_mesh';
-const kDraco = 'KHR_draco_mesh_compression';
+import {
+    kAttributes,
+    kComponentReaders,
+    kComponentType,
+    kDraco,
+    kExtension,
+    kGlb,
+    kPatientNode,
+    kSchemaFile,
+    kThreeAttributes,
+    kTypeComponents,
+} from '../../web-viewer/strata-format.js';
+
 const kHere = dirname(fileURLToPath(import.meta.url));
 const kSchemaDir = resolve(kHere, '../../schema');
-const kRootSchema = 'node.STRATA_progressive_mesh.schema.json';
+const kRootSchema = kSchemaFile;
 const kMaxFailLinesPerFile = 60;
 const kNormalToleranceDegrees = 1;
 
@@ -78,18 +89,19 @@ async function loadThreeGltfDracoDecoder(threeDir) {
     const wrapper = join(dir, 'draco_wasm_wrapper.js');
     const source = readFileSync(wrapper, 'utf8');
     const module = { exports: {} };
-    const factory = new Function('module', 'exports', 'require', '__filename', '__dirname',
-        `${source}\nreturn DracoDecoderModule;`)(
-        module, module.exports, createRequire(wrapper), wrapper, dir);
+    const factory = new Function(
+        'module',
+        'exports',
+        'require',
+        '__filename',
+        '__dirname',
+        `${source}\nreturn DracoDecoderModule;`,
+    )(module, module.exports, createRequire(wrapper), wrapper, dir);
     return await factory({ wasmBinary: readFileSync(join(dir, 'draco_decoder.wasm')) });
 }
 
 // ------------------------------------------------------------------------------------------------
 // the file itself: JSON and buffers as bytes
-
-const kGlbMagic = 0x46546c67;
-const kChunkJson = 0x4e4f534a;
-const kChunkBin = 0x004e4942;
 
 function asBytes(buffer) {
     return new Uint8Array(buffer.buffer, buffer.byteOffset, buffer.byteLength);
@@ -111,9 +123,9 @@ async function readGltf(file) {
     const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
     let json;
     let bin = null;
-    const isGlb = bytes.byteLength >= 12 && view.getUint32(0, true) === kGlbMagic;
+    const isGlb = bytes.byteLength >= 12 && view.getUint32(0, true) === kGlb.magic;
     if (isGlb) {
-        if (view.getUint32(4, true) !== 2) {
+        if (view.getUint32(4, true) !== kGlb.version) {
             throw new Error(`GLB version ${view.getUint32(4, true)}, not 2`);
         }
         let offset = 12;
@@ -121,9 +133,9 @@ async function readGltf(file) {
             const length = view.getUint32(offset, true);
             const type = view.getUint32(offset + 4, true);
             const data = bytes.subarray(offset + 8, offset + 8 + length);
-            if (type === kChunkJson && json === undefined) {
+            if (type === kGlb.chunkJson && json === undefined) {
                 json = JSON.parse(new TextDecoder().decode(data));
-            } else if (type === kChunkBin && bin === null) {
+            } else if (type === kGlb.chunkBin && bin === null) {
                 bin = data;
             }
             offset += 8 + length;
@@ -171,15 +183,7 @@ function bufferViewBytes(doc, index) {
     return buffer.subarray(start, start + view.byteLength);
 }
 
-const kComponents = { SCALAR: 1, VEC2: 2, VEC3: 3, VEC4: 4 };
-const kComponentReaders = {
-    5120: [1, (v, o) => v.getInt8(o)],
-    5121: [1, (v, o) => v.getUint8(o)],
-    5122: [2, (v, o) => v.getInt16(o, true)],
-    5123: [2, (v, o) => v.getUint16(o, true)],
-    5125: [4, (v, o) => v.getUint32(o, true)],
-    5126: [4, (v, o) => v.getFloat32(o, true)],
-};
+const kComponents = kTypeComponents;
 
 /// An uncompressed accessor's values, as Float32Array (floats) or Uint32Array (integers).
 function readAccessor(doc, index) {
@@ -202,8 +206,10 @@ function readAccessor(doc, index) {
         throw new Error(`accessor ${index} runs past the end of its bufferView`);
     }
     const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-    const out = accessor.componentType === 5126 ? new Float32Array(accessor.count * n)
-                                                : new Uint32Array(accessor.count * n);
+    const out =
+        accessor.componentType === kComponentType.float32
+            ? new Float32Array(accessor.count * n)
+            : new Uint32Array(accessor.count * n);
     for (let i = 0; i < accessor.count; ++i) {
         for (let j = 0; j < n; ++j) {
             out[i * n + j] = get(view, start + i * stride + j * size);
@@ -216,8 +222,13 @@ function readAccessor(doc, index) {
 // Draco
 
 const kDracoTypes = {
-    Float32Array: 'DT_FLOAT32', Int8Array: 'DT_INT8', Int16Array: 'DT_INT16', Int32Array: 'DT_INT32',
-    Uint8Array: 'DT_UINT8', Uint16Array: 'DT_UINT16', Uint32Array: 'DT_UINT32',
+    Float32Array: 'DT_FLOAT32',
+    Int8Array: 'DT_INT8',
+    Int16Array: 'DT_INT16',
+    Int32Array: 'DT_INT32',
+    Uint8Array: 'DT_UINT8',
+    Uint16Array: 'DT_UINT16',
+    Uint32Array: 'DT_UINT32',
 };
 
 /// Decodes a KHR_draco_mesh_compression bufferView the way three's DRACOLoader worker does
@@ -253,7 +264,12 @@ function dracoDecode(draco, bytes, attributeIds, attributeTypes = {}) {
             const byteLength = numPoints * itemSize * TypedArray.BYTES_PER_ELEMENT;
             const ptr = draco._malloc(byteLength);
             const ok = decoder.GetAttributeDataArrayForAllPoints(
-                mesh, attribute, draco[kDracoTypes[typeName]], byteLength, ptr);
+                mesh,
+                attribute,
+                draco[kDracoTypes[typeName]],
+                byteLength,
+                ptr,
+            );
             const values = new TypedArray(draco.HEAPU8.buffer, ptr, numPoints * itemSize).slice();
             draco._free(ptr);
             if (!ok) {
@@ -293,8 +309,7 @@ class DracoAdapter {
 
     decodeDracoFile(buffer, callback, attributeIDs, attributeTypes, _colorSpace, onError = () => {}) {
         try {
-            const data = dracoDecode(this.draco, new Uint8Array(buffer), attributeIDs ?? {},
-                attributeTypes ?? {});
+            const data = dracoDecode(this.draco, new Uint8Array(buffer), attributeIDs ?? {}, attributeTypes ?? {});
             const geometry = new this.THREE.BufferGeometry();
             geometry.setIndex(new this.THREE.BufferAttribute(data.index, 1));
             for (const [name, attribute] of Object.entries(data.attributes)) {
@@ -334,7 +349,11 @@ function closedSurfaceProblems(triangles) {
         if (a === b || b === c || c === a) {
             ++degenerate;
         }
-        for (const [u, v] of [[a, b], [b, c], [c, a]]) {
+        for (const [u, v] of [
+            [a, b],
+            [b, c],
+            [c, a],
+        ]) {
             const key = `${u}|${v}`;
             directed.set(key, (directed.get(key) ?? 0) + 1);
         }
@@ -358,11 +377,14 @@ function closedSurfaceProblems(triangles) {
     }
     const notTwice = [...undirected.entries()].filter(([, count]) => count !== 2);
     if (notTwice.length > 0) {
-        problems.push(`${notTwice.length} of ${undirected.size} edges not used exactly twice, e.g. ` +
-            `(${notTwice[0][0].replace('|', ')-(')}) used ${notTwice[0][1]}x`);
+        problems.push(
+            `${notTwice.length} of ${undirected.size} edges not used exactly twice, e.g. ` +
+                `(${notTwice[0][0].replace('|', ')-(')}) used ${notTwice[0][1]}x`,
+        );
     } else if (badCount > 0) {
-        problems.push(`${badCount} directed edges without exactly one reverse (inconsistent ` +
-            `orientation), e.g. ${example}`);
+        problems.push(
+            `${badCount} directed edges without exactly one reverse (inconsistent ` + `orientation), e.g. ${example}`,
+        );
     }
     return problems;
 }
@@ -411,9 +433,11 @@ function nodeWorldMatrices(THREE, json) {
         if (node.matrix !== undefined) {
             m.fromArray(node.matrix);
         } else {
-            m.compose(new THREE.Vector3(...(node.translation ?? [0, 0, 0])),
+            m.compose(
+                new THREE.Vector3(...(node.translation ?? [0, 0, 0])),
                 new THREE.Quaternion(...(node.rotation ?? [0, 0, 0, 1])),
-                new THREE.Vector3(...(node.scale ?? [1, 1, 1])));
+                new THREE.Vector3(...(node.scale ?? [1, 1, 1])),
+            );
         }
         return m;
     });
@@ -423,8 +447,12 @@ function nodeWorldMatrices(THREE, json) {
             if (depth > nodes.length) {
                 throw new Error('node hierarchy has a cycle');
             }
-            world[i] = parent[i] < 0 ? local[i].clone()
-                                     : worldOf(parent[i], depth + 1).clone().multiply(local[i]);
+            world[i] =
+                parent[i] < 0
+                    ? local[i].clone()
+                    : worldOf(parent[i], depth + 1)
+                          .clone()
+                          .multiply(local[i]);
         }
         return world[i];
     };
@@ -441,8 +469,16 @@ class FileCheck {
         this.validateExtension = validateExtension;
         this.file = file;
         this.failures = [];
-        this.stats = { objects: 0, clusters: 0, groups: 0, chunks: 0, threeChunks: 0, baseTriangles: 0,
-                       totalTriangles: 0, cuts: 0 };
+        this.stats = {
+            objects: 0,
+            clusters: 0,
+            groups: 0,
+            chunks: 0,
+            threeChunks: 0,
+            baseTriangles: 0,
+            totalTriangles: 0,
+            cuts: 0,
+        };
     }
 
     fail(section, message) {
@@ -459,16 +495,21 @@ class FileCheck {
         }
         this.doc = doc;
         const json = doc.json;
-        this.objects = (json.nodes ?? []).map((node, i) => ({ node, index: i, ext: node.extensions?.[kExtension] }))
+        this.objects = (json.nodes ?? [])
+            .map((node, i) => ({ node, index: i, ext: node.extensions?.[kExtension] }))
             .filter((o) => o.ext !== undefined);
         this.stats.objects = this.objects.length;
         if (this.objects.length === 0) {
             this.fail('dag', `no node has the extension ${kExtension}`);
         }
-        for (const [section, step] of [['schema', () => this.checkSchema()], ['dag', () => this.checkDag()],
-                                       ['draco', () => this.checkDraco()], ['cut', () => this.checkCuts()],
-                                       ['three', () => this.checkThree()],
-                                       ['transform', () => this.checkTransform()]]) {
+        for (const [section, step] of [
+            ['schema', () => this.checkSchema()],
+            ['dag', () => this.checkDag()],
+            ['draco', () => this.checkDraco()],
+            ['cut', () => this.checkCuts()],
+            ['three', () => this.checkThree()],
+            ['transform', () => this.checkTransform()],
+        ]) {
             try {
                 await step();
             } catch (error) {
@@ -482,8 +523,11 @@ class FileCheck {
         for (const { node, index, ext } of this.objects) {
             if (!this.validateExtension(ext)) {
                 for (const e of this.validateExtension.errors) {
-                    this.fail('schema', `node ${index} '${node.name}': ${kExtension}${e.instancePath} ` +
-                        `${e.message} (${e.schemaPath})`);
+                    this.fail(
+                        'schema',
+                        `node ${index} '${node.name}': ${kExtension}${e.instancePath} ` +
+                            `${e.message} (${e.schemaPath})`,
+                    );
                 }
             }
         }
@@ -499,8 +543,8 @@ class FileCheck {
                 referencedByNode.set(n.mesh, [...(referencedByNode.get(n.mesh) ?? []), i]);
             }
         });
-        const chunkOwner = new Map();  // chunk mesh -> "node i cluster c"
-        this.valid = new Set();  // node indices whose DAG is consistent enough for geometry checks
+        const chunkOwner = new Map(); // chunk mesh -> "node i cluster c"
+        this.valid = new Set(); // node indices whose DAG is consistent enough for geometry checks
         for (const { node, index, ext } of this.objects) {
             const where = `node ${index} '${node.name}'`;
             const fail = (message) => this.fail('dag', `${where}: ${message}`);
@@ -532,7 +576,10 @@ class FileCheck {
             const consumedBy = new Array(clusters.length).fill(undefined);
             const producedBy = new Array(clusters.length).fill(undefined);
             groups.forEach((g, gi) => {
-                for (const [list, by, what] of [[g.consumed, consumedBy, 'consumed'], [g.produced, producedBy, 'produced']]) {
+                for (const [list, by, what] of [
+                    [g.consumed, consumedBy, 'consumed'],
+                    [g.produced, producedBy, 'produced'],
+                ]) {
                     for (const c of Array.isArray(list) ? list : []) {
                         if (!isIndex(c, clusters.length)) {
                             fail(`group ${gi}: ${what} cluster ${c} is not a valid cluster index`);
@@ -557,7 +604,7 @@ class FileCheck {
                 }
             });
             if (this.failures.length !== before) {
-                continue;  // the rest needs consistent links
+                continue; // the rest needs consistent links
             }
             const fre = ext.fullResolutionError;
             groups.forEach((g, gi) => {
@@ -583,8 +630,10 @@ class FileCheck {
                     }
                     // 6. monotone errors
                     if (!(g.error >= groups[p].error)) {
-                        fail(`group ${gi}: error ${g.error} < error ${groups[p].error} of group ${p} ` +
-                            `(producer of its consumed cluster ${c})`);
+                        fail(
+                            `group ${gi}: error ${g.error} < error ${groups[p].error} of group ${p} ` +
+                                `(producer of its consumed cluster ${c})`,
+                        );
                     }
                 }
                 // 7. nested spheres
@@ -592,10 +641,13 @@ class FileCheck {
                     const d = Math.hypot(outer[0] - inner[0], outer[1] - inner[1], outer[2] - inner[2]);
                     return d + inner[3] <= outer[3] * (1 + 1e-6) + 1e-12;
                 };
-                const inside = [...g.consumed.map((c) => [`cluster ${c}`, clusters[c].sphere]),
-                                ...g.produced.map((c) => [`cluster ${c}`, clusters[c].sphere]),
-                                ...g.consumed.filter((c) => clusters[c].producer !== undefined)
-                                    .map((c) => [`group ${clusters[c].producer}`, groups[clusters[c].producer].sphere])];
+                const inside = [
+                    ...g.consumed.map((c) => [`cluster ${c}`, clusters[c].sphere]),
+                    ...g.produced.map((c) => [`cluster ${c}`, clusters[c].sphere]),
+                    ...g.consumed
+                        .filter((c) => clusters[c].producer !== undefined)
+                        .map((c) => [`group ${clusters[c].producer}`, groups[clusters[c].producer].sphere]),
+                ];
                 for (const [what, sphere] of inside) {
                     if (!contains(g.sphere, sphere)) {
                         fail(`group ${gi}: sphere [${g.sphere}] does not contain the sphere [${sphere}] of ${what}`);
@@ -610,7 +662,9 @@ class FileCheck {
                     if (c.mesh !== node.mesh) {
                         fail(`root cluster ${ci}: mesh ${c.mesh} is not the node's mesh ${node.mesh}`);
                     } else if (rootOfPrimitive[c.primitive ?? 0] !== undefined) {
-                        fail(`root clusters ${rootOfPrimitive[c.primitive ?? 0]} and ${ci} are both primitive ${c.primitive ?? 0}`);
+                        fail(
+                            `root clusters ${rootOfPrimitive[c.primitive ?? 0]} and ${ci} are both primitive ${c.primitive ?? 0}`,
+                        );
                     } else {
                         rootOfPrimitive[c.primitive ?? 0] = ci;
                     }
@@ -626,17 +680,26 @@ class FileCheck {
                 }
                 chunkOwner.set(c.mesh, `cluster ${ci} of node ${index}`);
                 if (referencedByNode.has(c.mesh)) {
-                    fail(`cluster ${ci}: ${meshLabel(json, c.mesh)} is referenced by node(s) ${referencedByNode.get(c.mesh)}`);
+                    fail(
+                        `cluster ${ci}: ${meshLabel(json, c.mesh)} is referenced by node(s) ${referencedByNode.get(c.mesh)}`,
+                    );
                 }
                 const primitives = meshes[c.mesh].primitives ?? [];
                 const p = primitives[0];
                 const draco = p?.extensions?.[kDraco];
-                if (primitives.length !== 1 || (c.primitive ?? 0) !== 0 || (p.mode ?? 4) !== 4 ||
+                if (
+                    primitives.length !== 1 ||
+                    (c.primitive ?? 0) !== 0 ||
+                    (p.mode ?? 4) !== 4 ||
                     draco === undefined ||
-                    !['POSITION', 'NORMAL', '_COARSE_POSITION'].every((a) => p.attributes?.[a] !== undefined &&
-                                                                            draco.attributes?.[a] !== undefined)) {
-                    fail(`cluster ${ci}: ${meshLabel(json, c.mesh)} is not one TRIANGLES primitive with ${kDraco} ` +
-                        'and POSITION, NORMAL, _COARSE_POSITION');
+                    ![kAttributes.position, kAttributes.normal, kAttributes.coarsePosition].every(
+                        (a) => p.attributes?.[a] !== undefined && draco.attributes?.[a] !== undefined,
+                    )
+                ) {
+                    fail(
+                        `cluster ${ci}: ${meshLabel(json, c.mesh)} is not one TRIANGLES primitive with ${kDraco} ` +
+                            'and POSITION, NORMAL, _COARSE_POSITION',
+                    );
                 }
             });
             rootOfPrimitive.forEach((ci, p) => {
@@ -660,7 +723,7 @@ class FileCheck {
         const worldMatrices = nodeWorldMatrices(this.deps.THREE, json);
         for (const { node, index, ext } of this.objects) {
             const where = `node ${index} '${node.name}'`;
-            const gridStep = ext.gridStep > 0 ? ext.gridStep : null;  // else [schema] says so
+            const gridStep = ext.gridStep > 0 ? ext.gridStep : null; // else [schema] says so
             const world = worldMatrices[index];
             const geometry = [];
             this.geometry.set(index, geometry);
@@ -670,7 +733,7 @@ class FileCheck {
                 const primitive = json.meshes?.[cluster.mesh]?.primitives?.[cluster.primitive ?? 0];
                 const isBase = cluster.mesh === node.mesh;
                 if (primitive === undefined || (!isBase && primitive.extensions?.[kDraco] === undefined)) {
-                    continue;  // [dag] says so
+                    continue; // [dag] says so
                 }
                 const accessors = json.accessors ?? [];
                 const positionAccessor = accessors[primitive.attributes?.POSITION];
@@ -716,10 +779,15 @@ class FileCheck {
                     }
                     ++this.stats.chunks;
                     if (second !== undefined) {
-                        const same = first.numPoints === second.numPoints && bitsEqual(first.index, second.index) &&
-                            Object.keys(draco.attributes).every((a) =>
-                                (first.attributes[a] === null) === (second.attributes[a] === null) &&
-                                (first.attributes[a] === null || bitsEqual(first.attributes[a].array, second.attributes[a].array)));
+                        const same =
+                            first.numPoints === second.numPoints &&
+                            bitsEqual(first.index, second.index) &&
+                            Object.keys(draco.attributes).every(
+                                (a) =>
+                                    (first.attributes[a] === null) === (second.attributes[a] === null) &&
+                                    (first.attributes[a] === null ||
+                                        bitsEqual(first.attributes[a].array, second.attributes[a].array)),
+                            );
                         if (!same) {
                             fail(`the decoders (${Object.keys(decoded)}) disagree`);
                         }
@@ -729,26 +797,34 @@ class FileCheck {
                         fail(`${d.numPoints} points decoded, POSITION accessor count ${positionAccessor.count}`);
                     }
                     if (d.numFaces * 3 !== indexAccessor.count) {
-                        fail(`${d.numFaces} faces decoded (${d.numFaces * 3} indices), indices accessor count ${indexAccessor.count}`);
+                        fail(
+                            `${d.numFaces} faces decoded (${d.numFaces * 3} indices), indices accessor count ${indexAccessor.count}`,
+                        );
                     }
                     const outOfRange = d.index.findIndex((i) => i >= d.numPoints);
                     if (outOfRange >= 0) {
                         fail(`index ${d.index[outOfRange]} >= ${d.numPoints} points`);
                     }
-                    for (const name of ['POSITION', 'NORMAL', '_COARSE_POSITION']) {
+                    for (const name of [kAttributes.position, kAttributes.normal, kAttributes.coarsePosition]) {
                         const a = d.attributes[name];
                         const accessor = accessors[primitive.attributes[name]];
                         if (a === null || a === undefined) {
                             fail(`no Draco attribute ${name} (unique id ${draco.attributes[name]})`);
                         } else if (a.itemSize !== 3 || a.array.length !== 3 * d.numPoints) {
                             fail(`${name}: ${a.itemSize} components, not 3`);
-                        } else if (accessor?.count !== d.numPoints || accessor?.type !== 'VEC3' || accessor?.componentType !== 5126) {
-                            fail(`${name} accessor: count ${accessor?.count} ${accessor?.type}/${accessor?.componentType}, ` +
-                                `decoded ${d.numPoints} float VEC3`);
+                        } else if (
+                            accessor?.count !== d.numPoints ||
+                            accessor?.type !== 'VEC3' ||
+                            accessor?.componentType !== kComponentType.float32
+                        ) {
+                            fail(
+                                `${name} accessor: count ${accessor?.count} ${accessor?.type}/${accessor?.componentType}, ` +
+                                    `decoded ${d.numPoints} float VEC3`,
+                            );
                         }
                     }
                     position = d.attributes.POSITION?.array;
-                    coarse = d.attributes._COARSE_POSITION?.array ?? null;
+                    coarse = d.attributes[kAttributes.coarsePosition]?.array ?? null;
                     index3 = d.index;
                     normal = d.attributes.NORMAL?.array ?? null;
                     if (normal) {
@@ -804,18 +880,21 @@ class FileCheck {
             if (offGrid < 0 && gridStep !== null && !Number.isInteger(x / gridStep)) {
                 offGrid = i;
             }
-            if (outside < 0 && accessor?.min !== undefined &&
-                !(x >= accessor.min[i % 3] && x <= accessor.max[i % 3])) {
+            if (outside < 0 && accessor?.min !== undefined && !(x >= accessor.min[i % 3] && x <= accessor.max[i % 3])) {
                 outside = i;
             }
         }
         if (offGrid >= 0) {
-            fail(`value ${values[offGrid]} (vertex ${Math.floor(offGrid / 3)}) is not on the grid, gridStep ${gridStep}`);
+            fail(
+                `value ${values[offGrid]} (vertex ${Math.floor(offGrid / 3)}) is not on the grid, gridStep ${gridStep}`,
+            );
         }
         if (outside >= 0) {
             const axis = outside % 3;
-            fail(`value ${values[outside]} (vertex ${Math.floor(outside / 3)}, axis ${axis}) outside the accessor's ` +
-                `[${accessor.min[axis]}, ${accessor.max[axis]}]`);
+            fail(
+                `value ${values[outside]} (vertex ${Math.floor(outside / 3)}, axis ${axis}) outside the accessor's ` +
+                    `[${accessor.min[axis]}, ${accessor.max[axis]}]`,
+            );
         }
     }
 
@@ -823,10 +902,14 @@ class FileCheck {
     checkCuts() {
         for (const { node, index, ext } of this.objects) {
             const geometry = this.geometry?.get(index);
-            if (!this.valid.has(index) || geometry === undefined ||
-                ext.clusters.some((c, ci) => geometry[ci] === undefined ||
-                                             (c.consumer !== undefined && geometry[ci].coarse === null))) {
-                continue;  // reported already
+            if (
+                !this.valid.has(index) ||
+                geometry === undefined ||
+                ext.clusters.some(
+                    (c, ci) => geometry[ci] === undefined || (c.consumer !== undefined && geometry[ci].coarse === null),
+                )
+            ) {
+                continue; // reported already
             }
             const where = `node ${index} '${node.name}'`;
             const { clusters, groups } = ext;
@@ -838,11 +921,15 @@ class FileCheck {
             const maxLevel = Math.max(0, ...groups.map((g) => g.level));
             for (let level = 0; level <= maxLevel; ++level) {
                 const refined = groups.map((g) => g.level > level);
-                const drawn = clusters.map((_, ci) => ci).filter((ci) => {
-                    const c = clusters[ci];
-                    return (c.producer === undefined || !refined[c.producer]) &&
-                        (c.consumer === undefined || refined[c.consumer]);
-                });
+                const drawn = clusters
+                    .map((_, ci) => ci)
+                    .filter((ci) => {
+                        const c = clusters[ci];
+                        return (
+                            (c.producer === undefined || !refined[c.producer]) &&
+                            (c.consumer === undefined || refined[c.consumer])
+                        );
+                    });
                 const problems = closedSurfaceProblems(drawn.flatMap((ci) => triangles(ci)));
                 ++this.stats.cuts;
                 for (const problem of problems) {
@@ -867,9 +954,10 @@ class FileCheck {
                         normals.set(key, { n, ci });
                         continue;
                     }
-                    const dot = (first.n[0] * n[0] + first.n[1] * n[1] + first.n[2] * n[2]) /
+                    const dot =
+                        (first.n[0] * n[0] + first.n[1] * n[1] + first.n[2] * n[2]) /
                         (Math.hypot(...first.n) * Math.hypot(...n));
-                    const angle = Math.acos(Math.min(1, Math.max(-1, dot))) * 180 / Math.PI;
+                    const angle = (Math.acos(Math.min(1, Math.max(-1, dot))) * 180) / Math.PI;
                     if (angle > worst.angle) {
                         worst = { angle, key, a: first.ci, b: ci };
                     }
@@ -877,8 +965,11 @@ class FileCheck {
             });
             this.stats.normalAngle = Math.max(this.stats.normalAngle ?? 0, worst.angle);
             if (worst.angle > kNormalToleranceDegrees) {
-                this.fail('cut', `${where}: the NORMAL at (${worst.key}) differs by ${worst.angle.toFixed(3)} degrees ` +
-                    `between clusters ${worst.a} and ${worst.b}`);
+                this.fail(
+                    'cut',
+                    `${where}: the NORMAL at (${worst.key}) differs by ${worst.angle.toFixed(3)} degrees ` +
+                        `between clusters ${worst.a} and ${worst.b}`,
+                );
             }
             // geomorph: consumed clusters at _COARSE_POSITION = produced clusters
             groups.forEach((g, gi) => {
@@ -903,8 +994,11 @@ class FileCheck {
                     }
                 }
                 if (differ > 0) {
-                    this.fail('cut', `${where}: group ${gi}: its consumed clusters at _COARSE_POSITION differ from ` +
-                        `its produced clusters in ${differ} triangles, e.g. ${example}`);
+                    this.fail(
+                        'cut',
+                        `${where}: group ${gi}: its consumed clusters at _COARSE_POSITION differ from ` +
+                            `its produced clusters in ${differ} triangles, e.g. ${example}`,
+                    );
                 }
             });
         }
@@ -944,24 +1038,29 @@ class FileCheck {
         loader.setDRACOLoader(adapter);
         const data = doc.bytes.buffer.slice(doc.bytes.byteOffset, doc.bytes.byteOffset + doc.bytes.byteLength);
         const gltf = await new Promise((resolveLoad, rejectLoad) =>
-            loader.parse(data, `${doc.dir}/`, resolveLoad, rejectLoad));
+            loader.parse(data, `${doc.dir}/`, resolveLoad, rejectLoad),
+        );
         const fail = (message) => this.fail('three', message);
-        const expectedRequests = (json.buffers ?? []).filter((b) => b.uri !== undefined && !b.uri.startsWith('data:')).length;
+        const expectedRequests = (json.buffers ?? []).filter(
+            (b) => b.uri !== undefined && !b.uri.startsWith('data:'),
+        ).length;
         // Buffers load lazily, when a bufferView in them is needed; the chunks below need the rest.
         const associations = gltf.parser.associations;
         const nodeOf = (object) => associations.get(object)?.nodes;
         // the scene: root "patient", one child per object
         const roots = gltf.scene.children;
-        const patient = roots.find((o) => json.nodes[nodeOf(o)]?.name === 'patient');
-        if (roots.length !== 1 || patient === undefined || patient.name !== 'patient') {
+        const patient = roots.find((o) => json.nodes[nodeOf(o)]?.name === kPatientNode);
+        if (roots.length !== 1 || patient === undefined || patient.name !== kPatientNode) {
             fail(`the scene's roots are [${roots.map((o) => o.name)}], not one node "patient"`);
         }
         const objectNodes = new Set(this.objects.map((o) => o.index));
         const children = patient?.children ?? [];
         const childNodes = children.map(nodeOf);
         if (children.length !== objectNodes.size || !childNodes.every((i) => objectNodes.has(i))) {
-            fail(`"patient" has children [${children.map((o) => o.name)}] (nodes ${childNodes}), ` +
-                `not the ${objectNodes.size} nodes with ${kExtension} (${[...objectNodes]})`);
+            fail(
+                `"patient" has children [${children.map((o) => o.name)}] (nodes ${childNodes}), ` +
+                    `not the ${objectNodes.size} nodes with ${kExtension} (${[...objectNodes]})`,
+            );
         }
         gltf.scene.updateMatrixWorld(true);
         for (const object of children) {
@@ -979,7 +1078,9 @@ class FileCheck {
                 fail(`${where}: the extension is missing from userData.gltfExtensions`);
             }
             if (!object.matrixWorld.elements.every(Number.isFinite) || object.matrixWorld.determinant() <= 0) {
-                fail(`${where}: world matrix not finite or not positive (determinant ${object.matrixWorld.determinant()})`);
+                fail(
+                    `${where}: world matrix not finite or not positive (determinant ${object.matrixWorld.determinant()})`,
+                );
             }
             // the base: the node's object is the Mesh (one primitive) or a Group of Meshes
             const meshes = [];
@@ -991,8 +1092,10 @@ class FileCheck {
             const rootClusters = (ext.clusters ?? []).filter((c) => c.consumer === undefined);
             const primitives = json.meshes?.[node.mesh]?.primitives ?? [];
             if (meshes.length !== rootClusters.length || meshes.length !== primitives.length) {
-                fail(`${where}: three made ${meshes.length} meshes of the base ${meshLabel(json, node.mesh)}, ` +
-                    `which has ${primitives.length} primitives; ${rootClusters.length} root clusters`);
+                fail(
+                    `${where}: three made ${meshes.length} meshes of the base ${meshLabel(json, node.mesh)}, ` +
+                        `which has ${primitives.length} primitives; ${rootClusters.length} root clusters`,
+                );
             }
             const triangles = [];
             for (const mesh of meshes) {
@@ -1028,7 +1131,10 @@ class FileCheck {
                 ++this.stats.threeChunks;
                 const primitive = json.meshes[cluster.mesh].primitives[0];
                 this.checkThreeGeometry(label, mesh.geometry, primitive);
-                if (mesh.geometry.getAttribute('_coarse_position')?.count !== mesh.geometry.getAttribute('position')?.count) {
+                if (
+                    mesh.geometry.getAttribute(kThreeAttributes.coarsePosition)?.count !==
+                    mesh.geometry.getAttribute('position')?.count
+                ) {
                     fail(`${label}: no _coarse_position attribute with the position count`);
                 }
             }
@@ -1061,8 +1167,10 @@ class FileCheck {
         const indexAccessor = accessors[primitive?.indices];
         const indexCount = geometry.index ? geometry.index.count : position.count;
         if (indexCount !== indexAccessor?.count || indexCount % 3 !== 0) {
-            fail(`${indexCount / 3} triangles, indices accessor count ${indexAccessor?.count} ` +
-                `(${indexAccessor?.count / 3} triangles)`);
+            fail(
+                `${indexCount / 3} triangles, indices accessor count ${indexAccessor?.count} ` +
+                    `(${indexAccessor?.count / 3} triangles)`,
+            );
         }
     }
 
@@ -1077,7 +1185,9 @@ class FileCheck {
             warn: (m) => messages.push(m),
             error: (m) => messages.push(m),
         };
-        const io = new NodeIO().setLogger(logger).registerExtensions(KHRONOS_EXTENSIONS)
+        const io = new NodeIO()
+            .setLogger(logger)
+            .registerExtensions(KHRONOS_EXTENSIONS)
             .registerDependencies({ 'draco3d.decoder': this.decoders.draco3d });
         const document = this.doc.isGlb ? await io.readBinary(this.doc.bytes) : await io.read(this.file);
         const fail = (message) => this.fail('transform', message);
@@ -1109,12 +1219,16 @@ class FileCheck {
                 for (const [semantic, accessor] of Object.entries(defs[pi].attributes ?? {})) {
                     const count = p.getAttribute(semantic)?.getCount();
                     if (count !== accessors[accessor]?.count) {
-                        fail(`${meshLabel(json, mi)} primitive ${pi}: ${semantic} count ${count}, accessor ${accessors[accessor]?.count}`);
+                        fail(
+                            `${meshLabel(json, mi)} primitive ${pi}: ${semantic} count ${count}, accessor ${accessors[accessor]?.count}`,
+                        );
                     }
                 }
                 const count = p.getIndices()?.getCount();
                 if (count !== accessors[defs[pi].indices]?.count) {
-                    fail(`${meshLabel(json, mi)} primitive ${pi}: ${count} indices, accessor ${accessors[defs[pi].indices]?.count}`);
+                    fail(
+                        `${meshLabel(json, mi)} primitive ${pi}: ${count} indices, accessor ${accessors[defs[pi].indices]?.count}`,
+                    );
                 }
             });
         });
@@ -1133,7 +1247,9 @@ class FileCheck {
 function makeExtensionValidator(Ajv) {
     const ajv = new Ajv({ allErrors: true, strict: true });
     ajv.addKeyword({ keyword: 'gltf_detailedDescription', schemaType: 'string' });
-    const names = readdirSync(kSchemaDir).filter((f) => f.endsWith('.schema.json')).sort();
+    const names = readdirSync(kSchemaDir)
+        .filter((f) => f.endsWith('.schema.json'))
+        .sort();
     for (const name of names) {
         const schema = JSON.parse(readFileSync(join(kSchemaDir, name), 'utf8'));
         const meta = schema.$schema;
@@ -1170,8 +1286,10 @@ async function main(files) {
         'three gltf': await loadThreeGltfDracoDecoder(deps.threeDir),
     };
     const threeVersion = deps.THREE.REVISION;
-    console.log(`check_progressive: three r${threeVersion} GLTFLoader, draco3d and three's glTF Draco ` +
-        `decoder, @gltf-transform/core NodeIO, ajv-draft-04; schema ${kSchemaDir}`);
+    console.log(
+        `check_progressive: three r${threeVersion} GLTFLoader, draco3d and three's glTF Draco ` +
+            `decoder, @gltf-transform/core NodeIO, ajv-draft-04; schema ${kSchemaDir}`,
+    );
     let failed = 0;
     for (const file of files) {
         const check = new FileCheck(deps, decoders, validateExtension, file);
@@ -1184,12 +1302,14 @@ async function main(files) {
         if (check.failures.length > shown.length) {
             console.log(`${file}: FAIL ... and ${check.failures.length - shown.length} more failures`);
         }
-        console.log(`${file}: ${check.failures.length === 0 ? 'ok' : 'FAIL'}: ${s.objects} objects, ` +
-            `${s.clusters} clusters, ${s.groups} groups, ${s.chunks} chunks decoded (2 decoders; ` +
-            `${s.threeChunks} through GLTFLoader), ${s.cuts} level cuts closed-checked, triangles ` +
-            `base ${s.baseTriangles} / total ${s.totalTriangles}` +
-            `, normals agree within ${(s.normalAngle ?? 0).toFixed(3)} deg` +
-            (check.failures.length === 0 ? '' : `; ${check.failures.length} failures`));
+        console.log(
+            `${file}: ${check.failures.length === 0 ? 'ok' : 'FAIL'}: ${s.objects} objects, ` +
+                `${s.clusters} clusters, ${s.groups} groups, ${s.chunks} chunks decoded (2 decoders; ` +
+                `${s.threeChunks} through GLTFLoader), ${s.cuts} level cuts closed-checked, triangles ` +
+                `base ${s.baseTriangles} / total ${s.totalTriangles}` +
+                `, normals agree within ${(s.normalAngle ?? 0).toFixed(3)} deg` +
+                (check.failures.length === 0 ? '' : `; ${check.failures.length} failures`),
+        );
         if (check.failures.length > 0) {
             ++failed;
         }

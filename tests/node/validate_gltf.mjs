@@ -8,8 +8,7 @@
 import { readFile } from 'node:fs/promises';
 import { basename, dirname, resolve } from 'node:path';
 
-const kAllowedExtension = 'STRATA_progressive_mesh';
-const kDraco = 'KHR_draco_mesh_compression';
+import { kDraco, kExtension as kAllowedExtension } from '../../web-viewer/strata-format.js';
 const kSeverities = ['error', 'warning', 'info', 'hint'];
 
 /// The glTF JSON of a .glb or .gltf file's bytes (null when it cannot be parsed).
@@ -40,6 +39,7 @@ function allowedIssues(json) {
             allowed.UNSUPPORTED_EXTENSION.add(`/extensionsUsed/${i}`);
         }
     });
+    allowLodIssues(json, allowed);
     if (!progressive) {
         return allowed;
     }
@@ -61,6 +61,41 @@ function allowedIssues(json) {
         }
     }
     return allowed;
+}
+
+/// LOD files (exporters/lod_gltf.h, issue 23): the validator knows neither MSFT_lod nor the
+/// compression extensions, so it reports them as unsupported, the coarser level nodes (reached
+/// only through MSFT_lod ids), the Draco data's buffer views and the buffer holding the
+/// EXT_meshopt_compression streams (named only by the extension) as maybe unused.
+function allowLodIssues(json, allowed) {
+    const used = json?.extensionsUsed ?? [];
+    if (!used.includes('MSFT_lod')) {
+        return;
+    }
+    used.forEach((name, i) => {
+        if (['MSFT_lod', kDraco, 'EXT_meshopt_compression'].includes(name)) {
+            allowed.UNSUPPORTED_EXTENSION.add(`/extensionsUsed/${i}`);
+        }
+    });
+    for (const node of json.nodes ?? []) {
+        for (const id of node.extensions?.MSFT_lod?.ids ?? []) {
+            allowed.UNUSED_OBJECT.add(`/nodes/${id}`);
+        }
+    }
+    for (const mesh of json.meshes ?? []) {
+        for (const primitive of mesh.primitives ?? []) {
+            const draco = primitive.extensions?.[kDraco];
+            if (draco !== undefined) {
+                allowed.UNUSED_OBJECT.add(`/bufferViews/${draco.bufferView}`);
+            }
+        }
+    }
+    for (const view of json.bufferViews ?? []) {
+        const meshopt = view.extensions?.EXT_meshopt_compression;
+        if (meshopt !== undefined) {
+            allowed.UNUSED_OBJECT.add(`/buffers/${meshopt.buffer}`);
+        }
+    }
 }
 
 function isAllowed(allowed, message) {
@@ -92,7 +127,7 @@ async function validateFile(validator, file) {
     }
     const report = await validator.validateBytes(bytes, {
         uri: basename(file),
-        maxIssues: 0,  // unlimited
+        maxIssues: 0, // unlimited
         writeTimestamp: false,
         externalResourceFunction: async (uri) =>
             asBytes(await readFile(resolve(dirname(file), decodeURIComponent(uri)))),
@@ -107,13 +142,15 @@ async function validateFile(validator, file) {
             `${issues.numWarnings} warnings, ${issues.numInfos} infos, ${issues.numHints} hints; ` +
             `${info.drawCallCount ?? 0} draw calls, ${info.totalTriangleCount ?? 0} triangles, ` +
             `${info.totalVertexCount ?? 0} vertices, ${external} external resources, ` +
-            `generator '${info.generator ?? ''}'`);
+            `generator '${info.generator ?? ''}'`,
+    );
     for (const message of issues.messages) {
         const where = message.pointer ?? (message.offset !== undefined ? `@${message.offset}` : '');
         const note = isAllowed(allowed, message) ? ' (allowed)' : '';
         console.log(
             `  ${kSeverities[message.severity] ?? message.severity} ${message.code} ${where}: ` +
-                `${message.message}${note}`);
+                `${message.message}${note}`,
+        );
     }
     return failing.length === 0;
 }

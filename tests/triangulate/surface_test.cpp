@@ -15,7 +15,9 @@
 #include "mesh/self_intersection.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
+#include "support/cut_error.h"
 #include "support/slice_section.h"
+#include "support/surface_checks.h"
 
 namespace strata {
 namespace {
@@ -28,9 +30,37 @@ struct SurfaceSummary {
     std::uint32_t failures = 0;
 };
 
-SurfaceSummary summarise(const Reconstruction& result, bool self_intersections) {
+SurfaceSummary summarise(const Reconstruction& result,
+                         bool self_intersections,
+                         const SliceStack& stack,
+                         double max_contour_error_px) {
     SurfaceSummary s;
     for (const ObjectSurface& surface : result.surfaces) {
+        // Independent of the pipeline's verification and of the phantom's expectation: the
+        // mesh core, exact self-intersection and the brute-force labeller of R.
+        const std::string problem = test::independent_problem(stack, surface);
+        if (!problem.empty()) {
+            s.problems.push_back("label " + std::to_string(surface.label) + ": " + problem);
+        }
+        // Independent of which contours the surface says it was built from: every section
+        // point within the bound of the ORIGINAL contours and every original contour point
+        // within it of the surface (the cut-error oracle), the bound being the contour
+        // tolerance plus the largest move of the grid snap.
+        const test::CutErrorReport measured = test::measure_cut_error(
+            surface.mesh, result.contours, surface.label, result.slice_spacing_px);
+        for (const std::string& p : measured.problems) {
+            s.problems.push_back("label " + std::to_string(surface.label) + ": " + p);
+        }
+        if (!(measured.max_px() <= max_contour_error_px)) {
+            s.problems.push_back("label " + std::to_string(surface.label) + ": " +
+                                 std::to_string(measured.max_px()) +
+                                 " px from the original contours (section " +
+                                 std::to_string(measured.max_section_px) + ", cap " +
+                                 std::to_string(measured.max_cap_px) + ", coverage " +
+                                 std::to_string(measured.max_coverage_px) + ") on slice " +
+                                 std::to_string(measured.worst_slice) + ", bound " +
+                                 std::to_string(max_contour_error_px));
+        }
         const MeshReport report = check_mesh(surface.mesh);
         for (const std::string& p : report.problems) {
             s.problems.push_back("label " + std::to_string(surface.label) + ": " + p);
@@ -112,7 +142,9 @@ TEST_P(CatalogueSurface, IsClosedManifoldWithReferenceTopology) {
     ReconstructOptions options;
     options.simplify = false;  // surfaces only
     const Reconstruction result = reconstruct(phantom.stack, options, report);
-    const SurfaceSummary s = summarise(result, true);
+    const double bound =
+        result.contours.tolerance_px + options.quantize.step / std::sqrt(2.0) + 1e-9;
+    const SurfaceSummary s = summarise(result, true, phantom.stack, bound);
     for (const std::string& p : s.problems) {
         ADD_FAILURE() << p;
     }

@@ -30,12 +30,22 @@ import { chromiumMissing, launchChromium } from '../chromium.mjs';
 
 function usage(message) {
     if (message) console.error(`first-frame: ${message}`);
-    console.error('usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom]');
+    console.error(
+        'usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom]',
+    );
     process.exit(2);
 }
 
 function parseArgs(args) {
-    const options = { out: null, gltf: null, throttle: null, runs: 1, viewport: { width: 960, height: 640 }, json: null, zoom: true };
+    const options = {
+        out: null,
+        gltf: null,
+        throttle: null,
+        runs: 1,
+        viewport: { width: 960, height: 640 },
+        json: null,
+        zoom: true,
+    };
     for (let i = 0; i < args.length; ++i) {
         const arg = args[i];
         if (arg === '--gltf') options.gltf = args[++i];
@@ -57,7 +67,8 @@ function parseArgs(args) {
     for (const f of ['model.glb', 'scene.glb']) {
         if (!existsSync(join(options.out, f))) usage(`${join(options.out, f)} not found`);
     }
-    if (options.gltf && !existsSync(join(options.gltf, 'model.gltf'))) usage(`${join(options.gltf, 'model.gltf')} not found`);
+    if (options.gltf && !existsSync(join(options.gltf, 'model.gltf')))
+        usage(`${join(options.gltf, 'model.gltf')} not found`);
     return options;
 }
 
@@ -76,7 +87,8 @@ async function makeDracoGlb(sceneGlb, target) {
     await io.write(target, document);
     let triangles = 0;
     for (const mesh of document.getRoot().listMeshes()) {
-        for (const p of mesh.listPrimitives()) triangles += (p.getIndices()?.getCount() ?? p.getAttribute('POSITION').getCount()) / 3;
+        for (const p of mesh.listPrimitives())
+            triangles += (p.getIndices()?.getCount() ?? p.getAttribute('POSITION').getCount()) / 3;
     }
     return triangles;
 }
@@ -99,8 +111,10 @@ async function measure(url, options, label) {
             const cdp = await browser.context.newCDPSession(page);
             await cdp.send('Network.enable');
             await cdp.send('Network.emulateNetworkConditions', {
-                offline: false, latency: options.throttle.rtt,
-                downloadThroughput: options.throttle.mbit * 1e6 / 8, uploadThroughput: options.throttle.mbit * 1e6 / 8,
+                offline: false,
+                latency: options.throttle.rtt,
+                downloadThroughput: (options.throttle.mbit * 1e6) / 8,
+                uploadThroughput: (options.throttle.mbit * 1e6) / 8,
             });
         }
         await page.goto(url);
@@ -111,36 +125,58 @@ async function measure(url, options, label) {
             const v = window.strataViewer;
             const t = v.timing;
             return {
-                state: v.state(), firstFrameMs: t.firstFrame, refinedMs: t.refined,
-                firstBytes: v.modelBytes(t.firstFrame), refinedBytes: v.modelBytes(t.refined),
+                state: v.state(),
+                firstFrameMs: t.firstFrame,
+                refinedMs: t.refined,
+                firstBytes: v.modelBytes(t.firstFrame),
+                refinedBytes: v.modelBytes(t.refined),
                 stamps: v.renderStamps.filter((x) => x >= t.firstFrame && x <= t.refined),
                 ticks: v.tickTimes.slice(),
             };
         });
         // zoom in
-        const zoom = !options.zoom ? { ms: null, bytes: 0, requests: 0, stamps: [], ticks: [], state: { triangles: null } }
+        const zoom = !options.zoom
+            ? { ms: null, bytes: 0, requests: 0, stamps: [], ticks: [], state: { triangles: null } }
             : await page.evaluate(async () => {
-            const v = window.strataViewer;
-            const before = v.modelBytes();
-            const start = performance.now();
-            v.tickTimes.length = 0;
-            v.dolly(0.4);
-            await v.idle(600000, 3);
-            const end = performance.now();
-            const after = v.modelBytes();
-            return { ms: end - start, bytes: after.bytes - before.bytes, requests: after.requests - before.requests,
-                     stamps: v.renderStamps.filter((x) => x >= start && x <= end), ticks: v.tickTimes.slice(), state: v.state() };
-        });
+                  const v = window.strataViewer;
+                  const before = v.modelBytes();
+                  const start = performance.now();
+                  v.tickTimes.length = 0;
+                  v.dolly(0.4);
+                  await v.idle(600000, 3);
+                  const end = performance.now();
+                  const after = v.modelBytes();
+                  return {
+                      ms: end - start,
+                      bytes: after.bytes - before.bytes,
+                      requests: after.requests - before.requests,
+                      stamps: v.renderStamps.filter((x) => x >= start && x <= end),
+                      ticks: v.tickTimes.slice(),
+                      state: v.state(),
+                  };
+              });
         const intervals = (stamps) => stamps.slice(1).map((x, i) => x - stamps[i]);
         return {
             label,
             triangles: first.state.triangles,
-            firstFrameMs: first.firstFrameMs, firstFrameBytes: first.firstBytes.bytes, firstFrameRequests: first.firstBytes.requests,
-            refinedMs: first.refinedMs, refinedBytes: first.refinedBytes.bytes, refinedRequests: first.refinedBytes.requests,
-            refiningFrames: quantiles(intervals(first.stamps)), loadTicks: quantiles(first.ticks),
-            maxErrorPx: first.state.maxErrorPx, maxErrorMm: first.state.maxErrorMm,
-            zoom: { ms: zoom.ms, bytes: zoom.bytes, requests: zoom.requests, triangles: zoom.state.triangles,
-                    frames: quantiles(intervals(zoom.stamps)), ticks: quantiles(zoom.ticks) },
+            firstFrameMs: first.firstFrameMs,
+            firstFrameBytes: first.firstBytes.bytes,
+            firstFrameRequests: first.firstBytes.requests,
+            refinedMs: first.refinedMs,
+            refinedBytes: first.refinedBytes.bytes,
+            refinedRequests: first.refinedBytes.requests,
+            refiningFrames: quantiles(intervals(first.stamps)),
+            loadTicks: quantiles(first.ticks),
+            maxErrorPx: first.state.maxErrorPx,
+            maxErrorMm: first.state.maxErrorMm,
+            zoom: {
+                ms: zoom.ms,
+                bytes: zoom.bytes,
+                requests: zoom.requests,
+                triangles: zoom.state.triangles,
+                frames: quantiles(intervals(zoom.stamps)),
+                ticks: quantiles(zoom.ticks),
+            },
             totalBytes: first.state.bytesTotal,
             errors,
         };
@@ -176,8 +212,10 @@ async function main() {
         console.error('first-frame: making the single-rate Draco .glb with glTF-Transform ...');
         const t0 = performance.now();
         const dracoTriangles = await makeDracoGlb(join(options.out, 'scene.glb'), join(dir, 'single-draco.glb'));
-        console.error(`first-frame: single-draco.glb ${statSync(join(dir, 'single-draco.glb')).size} bytes, ` +
-            `${dracoTriangles} triangles (${Math.round(performance.now() - t0)} ms)`);
+        console.error(
+            `first-frame: single-draco.glb ${statSync(join(dir, 'single-draco.glb')).size} bytes, ` +
+                `${dracoTriangles} triangles (${Math.round(performance.now() - t0)} ms)`,
+        );
         variants.push({ label: 'single-rate Draco .glb', file: 'single-draco.glb' });
         const server = await startServer({ model: join(dir, 'model.glb'), port: 0 });
         const base = server.url.replace(/\?.*$/, '');
@@ -195,19 +233,27 @@ async function main() {
         } finally {
             await server.close();
         }
-        const net = options.throttle ? `${options.throttle.mbit} Mbit/s, ${options.throttle.rtt} ms RTT (emulated)` : 'loopback, unthrottled';
-        console.log(`model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
-            `tau 1 px; Chromium software WebGL (SwiftShader)`);
-        console.log('variant                    | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms');
+        const net = options.throttle
+            ? `${options.throttle.mbit} Mbit/s, ${options.throttle.rtt} ms RTT (emulated)`
+            : 'loopback, unthrottled';
+        console.log(
+            `model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
+                `tau 1 px; Chromium software WebGL (SwiftShader)`,
+        );
+        console.log(
+            'variant                    | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms',
+        );
         for (const r of results) {
             const f = r.refiningFrames;
             const z = r.zoom;
-            console.log(`${r.label.padEnd(26)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
-                `${fmtMB(r.firstFrameBytes).padStart(9)} | ${String(r.triangles).padStart(12)} | ${fmtMs(r.refinedMs).padStart(10)} | ` +
-                `${fmtMB(r.refinedBytes).padStart(10)} | ${fmtMs(f.median)}/${fmtMs(f.p95)}/${fmtMs(f.max)} (${f.n}) | ` +
-                `${fmtMs(z.ms)}, ${fmtMB(z.bytes)}, ${z.triangles} | ${fmtMs(z.frames.median)}/${fmtMs(z.frames.p95)}/${fmtMs(z.frames.max)} (${z.frames.n}) | ` +
-                `${fmtMs(Math.max(r.loadTicks.max ?? 0, z.ticks.max ?? 0))}` +
-                (r.errors.length ? `  ERRORS: ${r.errors.slice(0, 2).join('; ')}` : ''));
+            console.log(
+                `${r.label.padEnd(26)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
+                    `${fmtMB(r.firstFrameBytes).padStart(9)} | ${String(r.triangles).padStart(12)} | ${fmtMs(r.refinedMs).padStart(10)} | ` +
+                    `${fmtMB(r.refinedBytes).padStart(10)} | ${fmtMs(f.median)}/${fmtMs(f.p95)}/${fmtMs(f.max)} (${f.n}) | ` +
+                    `${fmtMs(z.ms)}, ${fmtMB(z.bytes)}, ${z.triangles} | ${fmtMs(z.frames.median)}/${fmtMs(z.frames.p95)}/${fmtMs(z.frames.max)} (${z.frames.n}) | ` +
+                    `${fmtMs(Math.max(r.loadTicks.max ?? 0, z.ticks.max ?? 0))}` +
+                    (r.errors.length ? `  ERRORS: ${r.errors.slice(0, 2).join('; ')}` : ''),
+            );
         }
         if (options.json) writeFileSync(options.json, JSON.stringify({ options, results }, null, 2));
     } finally {

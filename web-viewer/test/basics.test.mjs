@@ -4,12 +4,20 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { mkdtempSync, readFileSync, rmSync, writeFileSync, mkdirSync } from 'node:fs';
+import { spawn } from 'node:child_process';
 import { tmpdir } from 'node:os';
 import { dirname, join } from 'node:path';
 import { fileURLToPath } from 'node:url';
 import {
-    buildDag, closeUpward, cutForPredicate, drawnClusters, isClosedUpward, restrictToLoaded, screenSpaceError,
-    selectCut, validateExtension,
+    buildDag,
+    closeUpward,
+    cutForPredicate,
+    drawnClusters,
+    isClosedUpward,
+    restrictToLoaded,
+    screenSpaceError,
+    selectCut,
+    validateExtension,
 } from '../selection.js';
 import { coalesceRanges, glbLayout, parseGlb } from '../gltf-file.js';
 import { parseRange, startServer } from '../serve.mjs';
@@ -27,16 +35,22 @@ test('the schema example: base, refined, screen-space error', () => {
     // 3D Tiles formula: error * H / (d * 2 tan(fovy / 2)), d to the sphere, infinite inside
     const [x, y, z, r] = ext.groups[0].sphere;
     const view = { position: [x, y, z + r + 1], fovy: Math.PI / 2, heightPx: 1000 };
-    assert.ok(Math.abs(screenSpaceError(0.0009, ext.groups[0].sphere, view) - 0.0009 * 1000 / 2) < 1e-12);
+    assert.ok(Math.abs(screenSpaceError(0.0009, ext.groups[0].sphere, view) - (0.0009 * 1000) / 2) < 1e-12);
     assert.equal(screenSpaceError(0.0009, ext.groups[0].sphere, { ...view, position: [x, y, z] }), Infinity);
-    assert.equal(screenSpaceError(0.0009, ext.groups[0].sphere, { orthographic: true, viewHeight: 0.5, heightPx: 1000 }), 0.0009 * 2000);
+    assert.equal(
+        screenSpaceError(0.0009, ext.groups[0].sphere, { orthographic: true, viewHeight: 0.5, heightPx: 1000 }),
+        0.0009 * 2000,
+    );
     // the projected error is 0.45 px: tau above it keeps the base, below it refines
     assert.deepEqual(selectCut([dag], view, { tauPx: 0.5 }).cuts[0].drawn, [2]);
     assert.deepEqual(selectCut([dag], view, { tauPx: 0.4 }).cuts[0].drawn, [0, 1]);
     // not loaded: stays coarse and wants both chunks
     const waiting = selectCut([dag], view, { tauPx: 0.4, isLoaded: (_, c) => c === 2 });
     assert.deepEqual(waiting.cuts[0].drawn, [2]);
-    assert.deepEqual(waiting.wanted.map((w) => w.cluster), [0, 1]);
+    assert.deepEqual(
+        waiting.wanted.map((w) => w.cluster),
+        [0, 1],
+    );
     // budget: the refinement adds 1100 triangles
     assert.deepEqual(selectCut([dag], view, { tauPx: 0.4, budget: 1999 }).cuts[0].drawn, [2]);
     assert.deepEqual(selectCut([dag], view, { tauPx: 0.4, budget: 2000 }).cuts[0].drawn, [0, 1]);
@@ -49,9 +63,12 @@ function chain() {
     const s = (x, r) => [x, 0, 0, r];
     return {
         clusters: [
-            { mesh: 1, level: 0, consumer: 0, sphere: s(-1.5, 0.5) }, { mesh: 2, level: 0, consumer: 0, sphere: s(-0.5, 0.5) },
-            { mesh: 3, level: 0, consumer: 1, sphere: s(0.5, 0.5) }, { mesh: 4, level: 0, consumer: 1, sphere: s(1.5, 0.5) },
-            { mesh: 5, level: 1, producer: 0, consumer: 2, sphere: s(-1, 1) }, { mesh: 6, level: 1, producer: 1, consumer: 2, sphere: s(1, 1) },
+            { mesh: 1, level: 0, consumer: 0, sphere: s(-1.5, 0.5) },
+            { mesh: 2, level: 0, consumer: 0, sphere: s(-0.5, 0.5) },
+            { mesh: 3, level: 0, consumer: 1, sphere: s(0.5, 0.5) },
+            { mesh: 4, level: 0, consumer: 1, sphere: s(1.5, 0.5) },
+            { mesh: 5, level: 1, producer: 0, consumer: 2, sphere: s(-1, 1) },
+            { mesh: 6, level: 1, producer: 1, consumer: 2, sphere: s(1, 1) },
             { mesh: 0, level: 2, producer: 2, sphere: s(0, 2) },
         ],
         groups: [
@@ -99,7 +116,7 @@ test('selectCut: region of interest, frustum, budget order', () => {
     const culled = selectCut([dag], { ...view, frustum }, { tauPx: 0.01 }).cuts[0];
     assert.deepEqual([...culled.refined], [0, 1, 1]);
     // the budget refines the larger priority first: group 1 (error 0.02) before group 0
-    const budget = 50 + 70 + 140;  // base 50, group 2 adds 70, group 1 adds 140, group 0 would add 140 more
+    const budget = 50 + 70 + 140; // base 50, group 2 adds 70, group 1 adds 140, group 0 would add 140 more
     const limited = selectCut([dag], view, { tauPx: 0.01, budget });
     assert.deepEqual([...limited.cuts[0].refined], [0, 1, 1]);
     assert.ok(limited.budgetLimited);
@@ -113,11 +130,18 @@ test('selectCut: region of interest, frustum, budget order', () => {
 });
 
 test('GLB layout and range coalescing', () => {
-    const json = { asset: { version: '2.0' }, bufferViews: [
-        { buffer: 0, byteOffset: 0, byteLength: 10 }, { buffer: 0, byteOffset: 12, byteLength: 8 },
-        { buffer: 0, byteOffset: 100, byteLength: 4 }, { buffer: 1, byteOffset: 0, byteLength: 4 },
-    ] };
-    const text = new TextEncoder().encode(JSON.stringify(json).padEnd(Math.ceil(JSON.stringify(json).length / 4) * 4, ' '));
+    const json = {
+        asset: { version: '2.0' },
+        bufferViews: [
+            { buffer: 0, byteOffset: 0, byteLength: 10 },
+            { buffer: 0, byteOffset: 12, byteLength: 8 },
+            { buffer: 0, byteOffset: 100, byteLength: 4 },
+            { buffer: 1, byteOffset: 0, byteLength: 4 },
+        ],
+    };
+    const text = new TextEncoder().encode(
+        JSON.stringify(json).padEnd(Math.ceil(JSON.stringify(json).length / 4) * 4, ' '),
+    );
     const bin = new Uint8Array(104).map((_, i) => i);
     const glb = new Uint8Array(12 + 8 + text.length + 8 + bin.length);
     const view = new DataView(glb.buffer);
@@ -136,8 +160,14 @@ test('GLB layout and range coalescing', () => {
     assert.deepEqual(parsed.json, json);
     assert.deepEqual([...parsed.bin.subarray(0, 3)], [0, 1, 2]);
     assert.equal(glbLayout(new TextEncoder().encode('{"asset":{"version":"2.0"}}')), null);
-    assert.deepEqual(coalesceRanges(json, [0, 1, 2, 3], 4).map((r) => [r.buffer, r.start, r.end, r.views]),
-        [[0, 0, 20, [0, 1]], [0, 100, 104, [2]], [1, 0, 4, [3]]]);
+    assert.deepEqual(
+        coalesceRanges(json, [0, 1, 2, 3], 4).map((r) => [r.buffer, r.start, r.end, r.views]),
+        [
+            [0, 0, 20, [0, 1]],
+            [0, 100, 104, [2]],
+            [1, 0, 4, [3]],
+        ],
+    );
 });
 
 test('serve.mjs: ranges, MIME types, no way out of its folders', async () => {
@@ -180,7 +210,12 @@ test('serve.mjs: ranges, MIME types, no way out of its folders', async () => {
             assert.match(r.headers.get('content-type'), /^text\/html/);
             r = await fetch(`${base}selection.js`);
             assert.match(r.headers.get('content-type'), /^text\/javascript/);
-            for (const path of ['model/..%2Fsecret.txt', 'model/%2e%2e/secret.txt', '..%2F..%2Fetc%2Fpasswd', 'model/nothing.bin']) {
+            for (const path of [
+                'model/..%2Fsecret.txt',
+                'model/%2e%2e/secret.txt',
+                '..%2F..%2Fetc%2Fpasswd',
+                'model/nothing.bin',
+            ]) {
                 r = await fetch(`${base}${path}`);
                 assert.equal(r.status, 404, path);
             }
@@ -188,6 +223,56 @@ test('serve.mjs: ranges, MIME types, no way out of its folders', async () => {
             assert.equal(r.status, 405);
         } finally {
             await server.close();
+        }
+    } finally {
+        rmSync(dir, { recursive: true, force: true });
+    }
+});
+
+/// Runs `node serve.mjs ARGS` until it exits (or kills it after timeoutMs): { code, stdout, stderr }.
+function runServe(args, timeoutMs = 10000) {
+    return new Promise((resolvePromise) => {
+        const child = spawn(process.execPath, [join(kHere, '..', 'serve.mjs'), ...args]);
+        let stdout = '';
+        let stderr = '';
+        child.stdout.on('data', (d) => (stdout += d));
+        child.stderr.on('data', (d) => (stderr += d));
+        const timer = setTimeout(() => child.kill('SIGKILL'), timeoutMs);
+        child.on('close', (code, signal) => {
+            clearTimeout(timer);
+            resolvePromise({ code, signal, stdout, stderr });
+        });
+    });
+}
+
+test('serve.mjs: a missing model, a folder or a taken port give one clear line and exit 2, no stack trace', async () => {
+    const dir = mkdtempSync(join(tmpdir(), 'strata-serve-errors-'));
+    try {
+        const model = join(dir, 'model.glb');
+        writeFileSync(model, new Uint8Array(100));
+        const stackTrace = /^\s+at |node:internal|Error: listen/m;
+        let r = await runServe([join(dir, 'missing.glb')]);
+        assert.equal(r.code, 2, r.stderr);
+        assert.match(r.stderr, /missing\.glb: no such file/);
+        assert.doesNotMatch(r.stderr, /not a \.glb/);
+        assert.doesNotMatch(r.stderr, stackTrace);
+        r = await runServe([dir]);
+        assert.equal(r.code, 2, r.stderr);
+        assert.match(r.stderr, /a folder, expected a \.glb or \.gltf file/);
+        writeFileSync(join(dir, 'notes.txt'), 'x');
+        r = await runServe([join(dir, 'notes.txt')]);
+        assert.equal(r.code, 2, r.stderr);
+        assert.match(r.stderr, /not a \.glb or \.gltf file/);
+        // a port another server holds
+        const other = await startServer({ model, port: 0 });
+        try {
+            r = await runServe([model, '--port', String(other.port)]);
+            assert.equal(r.code, 2, `exit ${r.code} ${r.signal}: ${r.stderr}`);
+            assert.match(r.stderr, new RegExp(`port ${other.port} on 127\\.0\\.0\\.1 is already in use`));
+            assert.doesNotMatch(r.stderr, stackTrace);
+            assert.equal(r.stderr.trim().split('\n').length, 1, r.stderr);
+        } finally {
+            await other.close();
         }
     } finally {
         rmSync(dir, { recursive: true, force: true });

@@ -1,7 +1,9 @@
 // node --test web-viewer/test/
 // The selection logic (selection.js) on real DAGs written by `strata build`: the model file is
 // given by the environment variable STRATA_VIEWER_MODEL (a .glb; a .gltf with its buffer files
-// works too). Without it the tests are skipped with a message.
+// works too); without it the tests build one (test-model.mjs), or fail.
+// The expected cuts come from an oracle written here from the spec's definitions (sets of
+// ancestors on the extension's own lists), not from selection.js's passes.
 //
 // For many random cameras, thresholds, budgets, regions of interest and loaded-chunk sets:
 //   * the refined set is closed upward; the drawn clusters are the stateless rule's;
@@ -19,15 +21,12 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { dirname, resolve } from 'node:path';
-import {
-    buildDag, clusterTriangleCounts, cutForPredicate, drawnClusters, groupScreenSpaceError,
-    isClosedUpward, selectCut, sphereInFrustum, sphereMeetsRoi, cutStats,
-} from '../selection.js';
+import { buildDag, clusterTriangleCounts, drawnClusters, selectCut, cutStats } from '../selection.js';
 import { parseGlb, progressiveNodes } from '../gltf-file.js';
+import { kDraco } from '../strata-format.js';
+import { testModel } from './test-model.mjs';
 
-const kModel = process.env.STRATA_VIEWER_MODEL;
-const kSkip = kModel ? false
-    : 'STRATA_VIEWER_MODEL is not set: give it a .glb written by `strata build` (CTest sets it from the build_scene fixture)';
+const kModel = testModel();
 const kTrials = Number(process.env.STRATA_VIEWER_TRIALS ?? 300);
 
 // ------------------------------------------------------------------------------------------------
@@ -45,10 +44,14 @@ function readModel(file) {
         json = JSON.parse(new TextDecoder().decode(bytes));
     }
     (json.buffers ?? []).forEach((b, i) => {
-        if (b.uri !== undefined) buffers[i] = new Uint8Array(readFileSync(resolve(dirname(file), decodeURIComponent(b.uri))));
+        if (b.uri !== undefined)
+            buffers[i] = new Uint8Array(readFileSync(resolve(dirname(file), decodeURIComponent(b.uri))));
     });
     const objects = progressiveNodes(json).map(({ nodeIndex, node, ext }) => ({
-        nodeIndex, name: node.name, ext, dag: buildDag(ext, { clusterTriangles: clusterTriangleCounts(ext, json) }),
+        nodeIndex,
+        name: node.name,
+        ext,
+        dag: buildDag(ext, { clusterTriangles: clusterTriangleCounts(ext, json) }),
     }));
     return { json, buffers, objects };
 }
@@ -73,9 +76,13 @@ function random(seed) {
 
 /// The scene's bounding sphere (of the root groups' spheres).
 function sceneSphere(objects) {
-    const spheres = objects.flatMap(({ dag }) => dag.roots.map((c) => [...dag.clusterSphere.subarray(4 * c, 4 * c + 4)]));
+    const spheres = objects.flatMap(({ dag }) =>
+        dag.roots.map((c) => [...dag.clusterSphere.subarray(4 * c, 4 * c + 4)]),
+    );
     const centre = [0, 1, 2].map((k) => spheres.reduce((s, sp) => s + sp[k], 0) / spheres.length);
-    const radius = Math.max(...spheres.map((sp) => Math.hypot(sp[0] - centre[0], sp[1] - centre[1], sp[2] - centre[2]) + sp[3]));
+    const radius = Math.max(
+        ...spheres.map((sp) => Math.hypot(sp[0] - centre[0], sp[1] - centre[1], sp[2] - centre[2]) + sp[3]),
+    );
     return { centre, radius };
 }
 
@@ -86,10 +93,15 @@ function randomView(rnd, scene) {
     const position = scene.centre.map((c, k) => c + dir[k] * distance);
     // look at a random point near the centre
     const target = scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius);
-    const fovy = (15 + rnd() * 75) * Math.PI / 180;
+    const fovy = ((15 + rnd() * 75) * Math.PI) / 180;
     const heightPx = Math.round(200 + rnd() * 1800);
     const aspect = 0.5 + rnd() * 1.5;
-    return { position, fovy, heightPx, frustum: frustumPlanes(position, target, fovy, aspect, scene.radius * 1e-3, scene.radius * 100) };
+    return {
+        position,
+        fovy,
+        heightPx,
+        frustum: frustumPlanes(position, target, fovy, aspect, scene.radius * 1e-3, scene.radius * 100),
+    };
 }
 
 function normalize(v) {
@@ -115,11 +127,20 @@ function frustumPlanes(eye, target, fovy, aspect, near, far) {
     const tx = ty * aspect;
     const plane = (n, p) => [...n, -dot(n, p)];
     const planes = [
-        plane(f, eye.map((e, k) => e + f[k] * near)),
-        plane(f.map((x) => -x), eye.map((e, k) => e + f[k] * far)),
+        plane(
+            f,
+            eye.map((e, k) => e + f[k] * near),
+        ),
+        plane(
+            f.map((x) => -x),
+            eye.map((e, k) => e + f[k] * far),
+        ),
     ];
     // side planes through the eye: normals from the frustum edges
-    for (const [axis, t, other] of [[r, tx, up], [up, ty, r]]) {
+    for (const [axis, t, other] of [
+        [r, tx, up],
+        [up, ty, r],
+    ]) {
         for (const s of [1, -1]) {
             const edge = normalize(f.map((x, k) => x + s * t * axis[k]));
             let n = normalize(cross(edge, other));
@@ -128,6 +149,91 @@ function frustumPlanes(eye, target, fovy, aspect, near, far) {
         }
     }
     return planes;
+}
+
+// ------------------------------------------------------------------------------------------------
+// the oracle: the spec's definitions (schema/README.md, "Selecting a cut", "Streaming") evaluated
+// on the extension's own cluster and group lists, as sets, without selection.js
+
+/// Per group, the set of groups above it (ancestors: consumers of its produced clusters, their
+/// consumers, ...), from ext.groups[g].produced and the groups' consumed lists.
+function ancestorSets(ext) {
+    const consumerOf = new Map();
+    ext.groups.forEach((group, g) => group.consumed.forEach((c) => consumerOf.set(c, g)));
+    const memo = new Array(ext.groups.length);
+    const above = (g) => {
+        if (memo[g] === undefined) {
+            const out = new Set();
+            for (const c of ext.groups[g].produced) {
+                const p = consumerOf.get(c);
+                if (p === undefined) continue;
+                out.add(p);
+                for (const q of above(p)) out.add(q);
+            }
+            memo[g] = out;
+        }
+        return memo[g];
+    };
+    return ext.groups.map((_, g) => above(g));
+}
+
+/// The refined set the spec defines for predicate P (and a loaded set): g is refined iff P holds
+/// for g or for some group below g (upward closure), and every group in g's ancestors-or-self has
+/// its consumed clusters loaded (the streaming restriction). Returns a Uint8Array.
+function oracleRefined(ext, ancestors, predicate, isLoaded = null) {
+    const ng = ext.groups.length;
+    const wanted = new Uint8Array(ng);
+    for (let g = 0; g < ng; ++g) {
+        if (!predicate(g)) continue;
+        wanted[g] = 1;
+        for (const a of ancestors[g]) wanted[a] = 1;
+    }
+    const loaded = (g) => isLoaded === null || ext.groups[g].consumed.every((c) => isLoaded(c));
+    const out = new Uint8Array(ng);
+    for (let g = 0; g < ng; ++g) {
+        out[g] = wanted[g] && loaded(g) && [...ancestors[g]].every(loaded) ? 1 : 0;
+    }
+    return out;
+}
+
+/// The spec's draw rule on the extension's lists: c is drawn iff (no producer or producer not
+/// refined) and (no consumer or consumer refined).
+function oracleDrawn(ext, refined) {
+    const producer = new Map();
+    const consumer = new Map();
+    ext.groups.forEach((group, g) => {
+        group.produced.forEach((c) => producer.set(c, g));
+        group.consumed.forEach((c) => consumer.set(c, g));
+    });
+    const out = [];
+    for (let c = 0; c < ext.clusters.length; ++c) {
+        const p = producer.get(c);
+        const q = consumer.get(c);
+        if ((p === undefined || !refined[p]) && (q === undefined || refined[q])) out.push(c);
+    }
+    return out;
+}
+
+/// The spec's screen-space predicate for one group (its JSON sphere and error): in the frustum
+/// (sphere not wholly behind a plane) and sse * factor / tau > 1, sse = error * H / (d * 2 tan(fovy /
+/// 2)), d = |camera - centre| - radius (infinite error at d <= 0), factor = roi.factor where the
+/// sphere meets the region of interest.
+function oracleWants(group, view, tauPx, roi, frustum) {
+    const [x, y, z, r] = group.sphere;
+    for (const [nx, ny, nz, d] of frustum ?? []) {
+        if (nx * x + ny * y + nz * z + d < -r) return false;
+    }
+    const d = Math.hypot(view.position[0] - x, view.position[1] - y, view.position[2] - z) - r;
+    const sse =
+        d > 0 ? (group.error * view.heightPx) / (d * 2 * Math.tan(view.fovy / 2)) : group.error > 0 ? Infinity : 0;
+    const inRoi = roi && Math.hypot(x - roi.center[0], y - roi.center[1], z - roi.center[2]) <= r + roi.radius;
+    const factor = inRoi && roi.factor > 1 ? roi.factor : 1;
+    return (sse * factor) / tauPx > 1;
+}
+
+/// True when every group above a refined group is refined (closed upward), on the oracle's sets.
+function closedUpward(ancestors, refined) {
+    return ancestors.every((above, g) => !refined[g] || [...above].every((a) => refined[a]));
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -175,42 +281,67 @@ function subset(a, b) {
 
 // ------------------------------------------------------------------------------------------------
 
-test('the model has objects with STRATA_progressive_mesh', { skip: kSkip }, () => {
+test('the model has objects with STRATA_progressive_mesh', () => {
     const { objects } = getModel();
     assert.ok(objects.length > 0, `no node with the extension in ${kModel}`);
-    assert.ok(objects.some(({ dag }) => dag.ng > 0), 'no object has refinement groups');
+    assert.ok(
+        objects.some(({ dag }) => dag.ng > 0),
+        'no object has refinement groups',
+    );
     for (const { name, dag } of objects) {
         // a surface of a single cluster has no groups (schema/README.md)
-        assert.ok(dag.ng === 0 ? dag.nc === 1 : dag.totalTriangles > dag.baseTriangles, `${name}: ${dag.nc} clusters, ${dag.ng} groups`);
-        assert.deepEqual(drawnClusters(dag, new Uint8Array(dag.ng)), dag.roots, `${name}: nothing refined must draw the roots`);
+        assert.ok(
+            dag.ng === 0 ? dag.nc === 1 : dag.totalTriangles > dag.baseTriangles,
+            `${name}: ${dag.nc} clusters, ${dag.ng} groups`,
+        );
+        assert.deepEqual(
+            drawnClusters(dag, new Uint8Array(dag.ng)),
+            dag.roots,
+            `${name}: nothing refined must draw the roots`,
+        );
         const all = drawnClusters(dag, new Uint8Array(dag.ng).fill(1));
-        assert.ok(all.every((c) => dag.producer[c] < 0), `${name}: everything refined must draw level 0`);
+        assert.ok(
+            all.every((c) => dag.producer[c] < 0),
+            `${name}: everything refined must draw level 0`,
+        );
     }
     console.log(`${kModel}: ${objects.map((o) => `${o.name} ${o.dag.nc} clusters/${o.dag.ng} groups`).join(', ')}`);
 });
 
-test('level cuts and uniform-error cuts are valid cuts', { skip: kSkip }, () => {
+test('level cuts and uniform-error cuts are valid cuts', () => {
     const { objects } = getModel();
-    for (const { name, dag } of objects) {
+    for (const { name, dag, ext } of objects) {
+        const ancestors = ancestorSets(ext);
         const levels = Math.max(...dag.groups.map((g) => g.level));
         for (let level = 0; level <= levels; ++level) {
-            const { refined, drawn } = cutForPredicate(dag, (g) => dag.groups[g].level > level);
-            assert.ok(isClosedUpward(dag, refined), `${name} level ${level}: not closed upward`);
+            const refined = oracleRefined(ext, ancestors, (g) => ext.groups[g].level > level);
+            const drawn = oracleDrawn(ext, refined);
+            assert.ok(closedUpward(ancestors, refined), `${name} level ${level}: not closed upward`);
+            assert.deepEqual(
+                drawnClusters(dag, refined),
+                drawn,
+                `${name} level ${level}: selection.js draws other clusters`,
+            );
             assert.equal(coverageProblem(dag, drawn), null, `${name} level ${level}`);
         }
         for (const g of dag.groups) {
             const tau = g.error * 0.999;
-            const { refined, drawn } = cutForPredicate(dag, (h) => dag.error[h] > tau);
-            assert.ok(isClosedUpward(dag, refined));
+            const refined = oracleRefined(ext, ancestors, (h) => ext.groups[h].error > tau);
+            const drawn = oracleDrawn(ext, refined);
+            assert.ok(closedUpward(ancestors, refined));
             assert.equal(coverageProblem(dag, drawn), null, `${name} uniform error ${tau}`);
-            assert.ok(cutStats(dag, drawn).maxError <= Math.max(tau, dag.fullResolutionError), `${name}: bound above tau`);
+            assert.ok(
+                cutStats(dag, drawn).maxError <= Math.max(tau, dag.fullResolutionError),
+                `${name}: bound above tau`,
+            );
         }
     }
 });
 
-test('random views, taus, budgets, regions and loaded sets: valid, exact, monotone cuts', { skip: kSkip }, () => {
+test('random views, taus, budgets, regions and loaded sets: valid, exact, monotone cuts', () => {
     const { objects } = getModel();
     const dags = objects.map((o) => o.dag);
+    const ancestors = objects.map((o) => ancestorSets(o.ext));
     const scene = sceneSphere(objects);
     const rnd = random(12345);
     const base = dags.reduce((s, d) => s + d.baseTriangles, 0);
@@ -221,17 +352,27 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
     for (let trial = 0; trial < kTrials; ++trial) {
         const view = randomView(rnd, scene);
         const cull = rnd() < 0.7;
-        const roi = rnd() < 0.4 ? { center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius),
-                                    radius: scene.radius * rnd() * 0.3, factor: 1 + rnd() * 8 } : null;
+        const roi =
+            rnd() < 0.4
+                ? {
+                      center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius),
+                      radius: scene.radius * rnd() * 0.3,
+                      factor: 1 + rnd() * 8,
+                  }
+                : null;
         // a random loaded set (roots always loaded), or everything
         let loaded = null;
         if (rnd() < 0.4) {
             const p = rnd();
-            loaded = dags.map((d) => Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < p ? 1 : 0)));
+            loaded = dags.map((d) =>
+                Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < p ? 1 : 0)),
+            );
         }
         const isLoaded = loaded === null ? null : (di, c) => loaded[di][c] === 1;
         const budget = rnd() < 0.5 ? Infinity : base + rnd() * (total - base) * 0.5;
-        const taus = Array.from({ length: 4 }, () => Math.exp(Math.log(0.25) + rnd() * Math.log(200))).sort((a, b) => a - b);
+        const taus = Array.from({ length: 4 }, () => Math.exp(Math.log(0.25) + rnd() * Math.log(200))).sort(
+            (a, b) => a - b,
+        );
         let previous = null;
         for (const tauPx of taus) {
             const options = { tauPx, budget, roi, cull, isLoaded };
@@ -240,8 +381,8 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
             let triangles = 0;
             result.cuts.forEach((cut, di) => {
                 const dag = dags[di];
-                assert.ok(isClosedUpward(dag, cut.refined), `${where}: ${objects[di].name} not closed upward`);
-                assert.deepEqual(cut.drawn, drawnClusters(dag, cut.refined));
+                assert.ok(closedUpward(ancestors[di], cut.refined), `${where}: ${objects[di].name} not closed upward`);
+                assert.deepEqual(cut.drawn, oracleDrawn(objects[di].ext, cut.refined));
                 assert.equal(coverageProblem(dag, cut.drawn), null, `${where}: ${objects[di].name}`);
                 if (loaded !== null) {
                     for (const c of cut.drawn) assert.ok(loaded[di][c], `${where}: cluster ${c} drawn but not loaded`);
@@ -254,23 +395,30 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
                 triangles += cutStats(dag, cut.drawn).triangles;
                 // against the spec's passes, when nothing limits the cut
                 if (budget === Infinity) {
-                    const factor = (g) => (roi && roi.factor > 1 && sphereMeetsRoi(dag.sphere, 4 * g, roi) ? roi.factor : 1);
-                    const frustum = cull ? view.frustum : null;
-                    const spec = cutForPredicate(dag,
-                        (g) => sphereInFrustum(dag.sphere, 4 * g, frustum) && groupScreenSpaceError(dag, g, view) * factor(g) / tauPx > 1,
-                        loaded === null ? null : (c) => loaded[di][c] === 1);
-                    assert.deepEqual(cut.refined, spec.refined, `${where}: ${objects[di].name} differs from the spec's passes`);
+                    const ext = objects[di].ext;
+                    const spec = oracleRefined(
+                        ext,
+                        ancestors[di],
+                        (g) => oracleWants(ext.groups[g], view, tauPx, roi, cull ? view.frustum : null),
+                        loaded === null ? null : (c) => loaded[di][c] === 1,
+                    );
+                    assert.deepEqual(cut.refined, spec, `${where}: ${objects[di].name} differs from the spec's passes`);
                 }
                 if (cut.refined.some((x) => x)) ++refinedSomething;
             });
             assert.equal(result.triangles, triangles, `${where}: triangle count`);
-            assert.ok(triangles <= Math.max(budget, base), `${where}: ${triangles} triangles over the budget ${budget}`);
+            assert.ok(
+                triangles <= Math.max(budget, base),
+                `${where}: ${triangles} triangles over the budget ${budget}`,
+            );
             if (result.budgetLimited) ++budgetLimited;
             if (result.wanted.length > 0) ++partial;
             if (previous !== null) {
                 result.cuts.forEach((cut, di) => {
-                    assert.ok(subset(cut.refined, previous.cuts[di].refined),
-                        `${where}: a larger tau refined a group a smaller one did not (${objects[di].name})`);
+                    assert.ok(
+                        subset(cut.refined, previous.cuts[di].refined),
+                        `${where}: a larger tau refined a group a smaller one did not (${objects[di].name})`,
+                    );
                 });
                 assert.ok(result.triangles <= previous.triangles, `${where}: a larger tau draws more triangles`);
             }
@@ -280,34 +428,44 @@ test('random views, taus, budgets, regions and loaded sets: valid, exact, monoto
         const tauPx = taus[0];
         const small = selectCut(dags, view, { tauPx, budget: base + (total - base) * 0.05, roi, cull, isLoaded });
         const large = selectCut(dags, view, { tauPx, budget: base + (total - base) * 0.3, roi, cull, isLoaded });
-        small.cuts.forEach((cut, di) => assert.ok(subset(cut.refined, large.cuts[di].refined), `trial ${trial}: budget not monotone`));
+        small.cuts.forEach((cut, di) =>
+            assert.ok(subset(cut.refined, large.cuts[di].refined), `trial ${trial}: budget not monotone`),
+        );
         if (roi !== null) {
             const without = selectCut(dags, view, { tauPx, cull, isLoaded });
             const withRoi = selectCut(dags, view, { tauPx, roi, cull, isLoaded });
-            without.cuts.forEach((cut, di) => assert.ok(subset(cut.refined, withRoi.cuts[di].refined), `trial ${trial}: roi not monotone`));
+            without.cuts.forEach((cut, di) =>
+                assert.ok(subset(cut.refined, withRoi.cuts[di].refined), `trial ${trial}: roi not monotone`),
+            );
         }
     }
-    console.log(`${kTrials} views x 4 taus: some refinement in ${refinedSomething} object cuts, ` +
-        `budget-limited ${budgetLimited}, waiting for chunks ${partial}`);
+    console.log(
+        `${kTrials} views x 4 taus: some refinement in ${refinedSomething} object cuts, ` +
+            `budget-limited ${budgetLimited}, waiting for chunks ${partial}`,
+    );
     assert.ok(refinedSomething > kTrials, 'the random views hardly ever refine anything: the test is not testing');
     assert.ok(budgetLimited > 0, 'the budget never limited a cut');
 });
 
-test('drawn clusters of random cuts form closed, consistently oriented surfaces (decoded with draco3d)', { skip: kSkip }, async () => {
+test('drawn clusters of random cuts form closed, consistently oriented surfaces (decoded with draco3d)', async () => {
     const { json, buffers, objects } = getModel();
     const draco3d = (await import('draco3d')).default;
     const draco = await draco3d.createDecoderModule({});
     // positions of every cluster, as keys of exact float values
-    const keysOf = new Map();  // mesh/primitive -> { keys: string[], index }
+    const keysOf = new Map(); // mesh/primitive -> { keys: string[], index }
     const clusterTriangles = (cluster) => {
         const id = `${cluster.mesh}/${cluster.primitive ?? 0}`;
         if (!keysOf.has(id)) {
             const primitive = json.meshes[cluster.mesh].primitives[cluster.primitive ?? 0];
-            const ext = primitive.extensions?.KHR_draco_mesh_compression;
+            const ext = primitive.extensions?.[kDraco];
             let positions;
             let index;
             if (ext !== undefined) {
-                ({ positions, index } = dracoDecode(draco, bufferViewBytes(json, buffers, ext.bufferView), ext.attributes.POSITION));
+                ({ positions, index } = dracoDecode(
+                    draco,
+                    bufferViewBytes(json, buffers, ext.bufferView),
+                    ext.attributes.POSITION,
+                ));
             } else {
                 positions = readAccessor(json, buffers, primitive.attributes.POSITION);
                 index = readAccessor(json, buffers, primitive.indices);
@@ -329,17 +487,32 @@ test('drawn clusters of random cuts form closed, consistently oriented surfaces 
     let checked = 0;
     for (let trial = 0; trial < 16; ++trial) {
         const view = randomView(rnd, scene);
-        const roi = { center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius), radius: scene.radius * 0.2, factor: 4 };
+        const roi = {
+            center: scene.centre.map((c) => c + (rnd() - 0.5) * scene.radius),
+            radius: scene.radius * 0.2,
+            factor: 4,
+        };
         const base = dags.reduce((s, d) => s + d.baseTriangles, 0);
         const budget = trial % 4 === 1 ? base * (1 + rnd() * 3) : Infinity;
-        const loaded = dags.map((d) => Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < 0.7 ? 1 : 0)));
+        const loaded = dags.map((d) =>
+            Uint8Array.from({ length: d.nc }, (_, c) => (d.consumer[c] < 0 || rnd() < 0.7 ? 1 : 0)),
+        );
         const isLoaded = trial % 4 === 2 ? (di, c) => loaded[di][c] === 1 : null;
-        const result = selectCut(dags, view, { tauPx: Math.exp(rnd() * 4) * 0.3, roi: trial % 2 ? roi : null,
-                                               cull: trial % 3 !== 0, budget, isLoaded });
+        const result = selectCut(dags, view, {
+            tauPx: Math.exp(rnd() * 4) * 0.3,
+            roi: trial % 2 ? roi : null,
+            cull: trial % 3 !== 0,
+            budget,
+            isLoaded,
+        });
         result.cuts.forEach((cut, di) => {
             const triangles = cut.drawn.flatMap((c) => clusterTriangles(objects[di].ext.clusters[c]));
             const problem = closedProblem(triangles);
-            assert.equal(problem, null, `trial ${trial}: ${objects[di].name}, ${cut.drawn.length} clusters: ${problem}`);
+            assert.equal(
+                problem,
+                null,
+                `trial ${trial}: ${objects[di].name}, ${cut.drawn.length} clusters: ${problem}`,
+            );
             ++checked;
         });
     }
@@ -353,7 +526,11 @@ function closedProblem(triangles) {
     const directed = new Map();
     for (const [a, b, c] of triangles) {
         if (a === b || b === c || c === a) return 'degenerate triangle';
-        for (const [u, v] of [[a, b], [b, c], [c, a]]) {
+        for (const [u, v] of [
+            [a, b],
+            [b, c],
+            [c, a],
+        ]) {
             const key = `${u}|${v}`;
             if (directed.has(key)) return `directed edge ${key} used twice`;
             directed.set(key, 1);
@@ -379,11 +556,16 @@ function readAccessor(json, buffers, index) {
     const offset = bytes.byteOffset + (accessor.byteOffset ?? 0);
     const copy = (T) => new T(bytes.buffer.slice(offset, offset + accessor.count * n * T.BYTES_PER_ELEMENT));
     switch (accessor.componentType) {
-    case 5126: return copy(Float32Array);
-    case 5125: return copy(Uint32Array);
-    case 5123: return copy(Uint16Array);
-    case 5121: return copy(Uint8Array);
-    default: throw new Error(`accessor ${index}: component type ${accessor.componentType}`);
+        case 5126:
+            return copy(Float32Array);
+        case 5125:
+            return copy(Uint32Array);
+        case 5123:
+            return copy(Uint16Array);
+        case 5121:
+            return copy(Uint8Array);
+        default:
+            throw new Error(`accessor ${index}: component type ${accessor.componentType}`);
     }
 }
 

@@ -1,0 +1,755 @@
+// Discrete LOD glTF 2.0 for asset pipelines: MSFT_lod (Microsoft vendor extension: a node names
+// its coarser stand-ins, `extras.MSFT_screencoverage` says when each is shown), `_LOD<i>` node
+// names (the Unity and Unreal importers' convention) and either KHR_draco_mesh_compression or
+// EXT_meshopt_compression (with KHR_mesh_quantization) on every level. Each level is a cut of the
+// multiresolution model, so it is closed, crack-free and within its declared bound.
+//
+// The JSON is written with nlohmann_json and the GLB container by hand (tinygltf cannot write
+// compressed primitives).
+#include "exporters/lod_gltf.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <string>
+
+#include <draco/compression/decode.h>
+#include <draco/mesh/mesh.h>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_write.h"
+#include "core/error.h"
+#include "core/file_names.h"
+#include "exporters/detail/draco_chunk.h"
+#include "exporters/detail/glb_container.h"
+#include "exporters/detail/gltf_common.h"
+#include "exporters/detail/meshopt_streams.h"
+
+namespace strata {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+using detail::to_float;
+
+constexpr int kFloat = 5126;
+constexpr int kByte = 5120;
+constexpr int kUnsignedShort = 5123;
+constexpr int kUnsignedInt = 5125;
+constexpr int kArrayBuffer = 34962;
+constexpr int kElementArrayBuffer = 34963;
+constexpr double kRoughness = 0.6;
+constexpr std::size_t kMaxShortVertices = 65535;  // index 65535 is the primitive restart value
+constexpr const char* kDraco = "KHR_draco_mesh_compression";
+constexpr const char* kMeshopt = "EXT_meshopt_compression";
+constexpr const char* kQuantization = "KHR_mesh_quantization";
+constexpr const char* kLod = "MSFT_lod";
+
+[[noreturn]] void fail(ErrorCode code, const std::filesystem::path& path, const std::string& what) {
+    throw Error(code, path.string() + ": " + what);
+}
+
+std::string object_name(const LodObject& object) {
+    return object.name.empty() ? "label " + std::to_string(object.label) : object.name;
+}
+
+void check_options(const std::filesystem::path& path, const LodOptions& options) {
+    for (std::size_t i = 0; i < options.error_mm.size(); ++i) {
+        const double e = options.error_mm[i];
+        if (!std::isfinite(e) || e < 0.0 || (i > 0 && !(e > options.error_mm[i - 1]))) {
+            fail(ErrorCode::InvalidInput, path,
+                 "LOD error bound " + std::to_string(i) + " is " + std::to_string(e) +
+                     " mm, expected finite, non-negative and increasing bounds");
+        }
+    }
+    if (options.error_mm.empty() && options.level_count == 0) {
+        fail(ErrorCode::InvalidInput, path, "0 LOD levels requested, expected at least one");
+    }
+    if (!(options.screen_error_px > 0.0) || !(options.viewport_height_px > 0.0) ||
+        !(options.aspect > 0.0) || !std::isfinite(options.screen_error_px) ||
+        !std::isfinite(options.viewport_height_px) || !std::isfinite(options.aspect)) {
+        fail(ErrorCode::InvalidInput, path,
+             "screen error, viewport height and aspect must be positive and finite");
+    }
+}
+
+/// Where stored positions live: grid coordinates (x px, y px, z in slices; x negated when the
+/// slice frame mirrors, so the node matrix is a rotation times positive scales) and the map
+/// from them to LPS mm.
+struct StorageFrame {
+    double flip_x = 1.0;
+    double d = 1.0;
+    std::array<double, 16> matrix{};  ///< storage -> LPS mm, column-major
+};
+
+StorageFrame storage_frame(const std::filesystem::path& path, const SliceFrame& frame) {
+    const auto& l = frame.linear;
+    const auto column = [&](int c) { return Vec3{l[c], l[3 + c], l[6 + c]}; };
+    for (double v : l) {
+        if (!std::isfinite(v)) {
+            fail(ErrorCode::InvalidInput, path, "the slice frame has a non-finite entry");
+        }
+    }
+    if (!(frame.slice_spacing_px > 0.0) || !std::isfinite(frame.slice_spacing_px) ||
+        !(frame.error_mm_per_px > 0.0)) {
+        fail(ErrorCode::InvalidInput, path, "slice spacing and error scale must be positive");
+    }
+    for (int a = 0; a < 3; ++a) {
+        if (!(norm(column(a)) > 0.0)) {
+            fail(ErrorCode::InvalidInput, path,
+                 "the slice frame's column " + std::to_string(a) + " is zero");
+        }
+        for (int b = a + 1; b < 3; ++b) {
+            if (std::abs(dot(column(a), column(b))) > 1e-6 * norm(column(a)) * norm(column(b))) {
+                fail(ErrorCode::InvalidInput, path,
+                     "the voxel grid is sheared (columns " + std::to_string(a) + " and " +
+                         std::to_string(b) +
+                         " of the affine are not orthogonal): a glTF node cannot hold the "
+                         "transform; resample the volume to an orthogonal grid");
+            }
+        }
+    }
+    StorageFrame s;
+    s.flip_x = dot(cross(column(0), column(1)), column(2)) < 0.0 ? -1.0 : 1.0;
+    s.d = frame.slice_spacing_px;
+    const std::array<double, 3> scale{s.flip_x, 1.0, s.d};
+    for (int c = 0; c < 3; ++c) {
+        for (int r = 0; r < 3; ++r) {
+            s.matrix[4 * c + r] = l[3 * r + c] * scale[c];
+        }
+    }
+    s.matrix[12] = frame.origin[0];
+    s.matrix[13] = frame.origin[1];
+    s.matrix[14] = frame.origin[2];
+    s.matrix[15] = 1.0;
+    return s;
+}
+
+/// Column-major 4 x 4 product a * b.
+std::array<double, 16> multiply(const std::array<double, 16>& a, const std::array<double, 16>& b) {
+    std::array<double, 16> m{};
+    for (int c = 0; c < 4; ++c) {
+        for (int r = 0; r < 4; ++r) {
+            for (int k = 0; k < 4; ++k) {
+                m[4 * c + r] += a[4 * k + r] * b[4 * c + k];
+            }
+        }
+    }
+    return m;
+}
+
+Vec3 transform(const std::array<double, 16>& m, const std::array<double, 3>& p) {
+    Vec3 out;
+    for (int r = 0; r < 3; ++r) {
+        out[r] = m[12 + r] + m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2];
+    }
+    return out;
+}
+
+/// One level ready to be placed in the buffer.
+struct EncodedLevel {
+    MultiresCut cut;
+    std::size_t triangles = 0;
+    std::size_t vertices = 0;
+    std::uint32_t model_level = 0;
+    // Draco
+    std::string draco;
+    std::uint32_t points = 0;
+    int position_id = -1, normal_id = -1;
+    std::array<float, 3> min{}, max{};
+    // meshopt
+    detail::MeshoptMesh meshopt;
+};
+
+/// The cut's mesh in storage coordinates (triangles reversed when the frame mirrors).
+struct StorageMesh {
+    std::vector<std::array<float, 3>> points;
+    std::vector<std::array<std::uint32_t, 3>> triangles;
+};
+
+StorageMesh storage_mesh(const TriMesh& cut, const StorageFrame& s, double step) {
+    StorageMesh m;
+    m.points.reserve(cut.positions.size());
+    for (const Vec3& p : cut.positions) {
+        const double z = std::nearbyint(p.z / s.d / step) * step;
+        m.points.push_back({to_float(s.flip_x * p.x), to_float(p.y), to_float(z)});
+    }
+    m.triangles = cut.triangles;
+    if (s.flip_x < 0.0) {
+        for (auto& t : m.triangles) {
+            std::swap(t[1], t[2]);
+        }
+    }
+    return m;
+}
+
+/// Area-weighted unit vertex normals in storage coordinates (+z where undefined).
+std::vector<std::array<float, 3>> storage_normals(const StorageMesh& m) {
+    std::vector<Vec3> sum(m.points.size());
+    const auto at = [&](std::uint32_t v) {
+        return Vec3{m.points[v][0], m.points[v][1], m.points[v][2]};
+    };
+    for (const auto& t : m.triangles) {
+        const Vec3 a = at(t[0]);
+        const Vec3 n = cross(at(t[1]) - a, at(t[2]) - a);
+        for (const std::uint32_t v : t) {
+            sum[v] = sum[v] + n;
+        }
+    }
+    std::vector<std::array<float, 3>> out;
+    out.reserve(sum.size());
+    for (const Vec3& n : sum) {
+        const double length = norm(n);
+        const Vec3 u = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * n : Vec3{0, 0, 1};
+        out.push_back({to_float(u.x), to_float(u.y), to_float(u.z)});
+    }
+    return out;
+}
+
+/// Triangles as position triples rotated to start at their smallest point, sorted: equal for two
+/// meshes with the same oriented triangles whatever their vertex order.
+std::vector<std::array<std::array<float, 3>, 3>> canonical_triangles(
+    const std::vector<std::array<float, 3>>& points,
+    const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+    std::vector<std::array<std::array<float, 3>, 3>> out;
+    out.reserve(triangles.size());
+    for (const auto& t : triangles) {
+        std::array<std::array<float, 3>, 3> p{points[t[0]], points[t[1]], points[t[2]]};
+        const auto first = std::min_element(p.begin(), p.end()) - p.begin();
+        std::rotate(p.begin(), p.begin() + first, p.end());
+        out.push_back(p);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+/// Encodes one level with Draco, lossless on the grid, and checks the decoded mesh: the same
+/// oriented triangles on the same positions.
+void encode_draco(const std::filesystem::path& path,
+                  const std::string& where,
+                  const StorageMesh& m,
+                  const std::vector<std::array<float, 3>>& normals,
+                  double step,
+                  const LodOptions& options,
+                  EncodedLevel& level) {
+    detail::DracoChunkInput input;
+    input.positions = m.points;
+    input.normals = normals;
+    input.triangles = m.triangles;
+    input.step = step;
+    detail::DracoChunkBytes encoded;
+    try {
+        encoded = detail::encode_draco_chunk(input, options.compression_level, options.normal_bits);
+    } catch (const Error& e) {
+        fail(e.code(), path, where + ": " + e.what());
+    }
+    draco::DecoderBuffer in;
+    in.Init(encoded.bytes.data(), encoded.bytes.size());
+    draco::Decoder decoder;
+    auto decoded_or = decoder.DecodeMeshFromBuffer(&in);
+    if (!decoded_or.ok()) {
+        fail(ErrorCode::Internal, path,
+             where + ": Draco cannot decode its own output: " + decoded_or.status().error_msg());
+    }
+    const std::unique_ptr<draco::Mesh> decoded = std::move(decoded_or).value();
+    const draco::PointAttribute* dp = decoded->GetAttributeByUniqueId(encoded.position_id);
+    if (dp == nullptr || decoded->num_faces() != m.triangles.size()) {
+        fail(ErrorCode::Internal, path, where + ": Draco round trip lost positions or faces");
+    }
+    std::vector<std::array<float, 3>> points(decoded->num_points());
+    level.min.fill(std::numeric_limits<float>::infinity());
+    level.max.fill(-std::numeric_limits<float>::infinity());
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
+        dp->ConvertValue<float, 3>(dp->mapped_index(draco::PointIndex(i)), points[i].data());
+        for (int k = 0; k < 3; ++k) {
+            level.min[k] = std::min(level.min[k], points[i][k]);
+            level.max[k] = std::max(level.max[k], points[i][k]);
+        }
+    }
+    std::vector<std::array<std::uint32_t, 3>> faces;
+    faces.reserve(decoded->num_faces());
+    for (draco::FaceIndex f(0); f < decoded->num_faces(); ++f) {
+        const auto& face = decoded->face(f);
+        faces.push_back({face[0].value(), face[1].value(), face[2].value()});
+    }
+    if (canonical_triangles(points, faces) != canonical_triangles(m.points, m.triangles)) {
+        fail(ErrorCode::Internal, path,
+             where + ": Draco changed the triangles or moved a position off the grid");
+    }
+    level.draco = std::move(encoded.bytes);
+    level.points = decoded->num_points();
+    level.position_id = encoded.position_id;
+    level.normal_id = encoded.normal_id;
+}
+
+/// The per-object grid for meshopt: positions as uint16 steps from `origin` when the model's
+/// extent fits 65535 steps, else float storage coordinates.
+struct MeshoptGrid {
+    bool fits = false;
+    std::array<double, 3> origin{};
+    double step = 0.0;
+};
+
+MeshoptGrid meshopt_grid(const MultiresMesh& model, const StorageFrame& s) {
+    MeshoptGrid g;
+    g.step = model.grid_step;
+    TriMesh all;
+    all.positions = model.positions;
+    const StorageMesh m = storage_mesh(all, s, g.step);
+    std::array<double, 3> lo{}, hi{};
+    lo.fill(std::numeric_limits<double>::infinity());
+    hi.fill(-std::numeric_limits<double>::infinity());
+    for (const auto& p : m.points) {
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], double(p[k]));
+            hi[k] = std::max(hi[k], double(p[k]));
+        }
+    }
+    g.origin = lo;
+    g.fits = !m.points.empty();
+    for (int k = 0; k < 3; ++k) {
+        g.fits = g.fits && (hi[k] - lo[k]) / g.step <= 65535.0;
+    }
+    for (const auto& p : m.points) {
+        for (int k = 0; k < 3 && g.fits; ++k) {
+            const double q = std::nearbyint((p[k] - lo[k]) / g.step);
+            g.fits = lo[k] + q * g.step == double(p[k]);
+        }
+    }
+    return g;
+}
+
+void encode_meshopt(const std::filesystem::path& path,
+                    const std::string& where,
+                    const StorageMesh& m,
+                    const std::vector<std::array<float, 3>>& normals,
+                    const MeshoptGrid& grid,
+                    EncodedLevel& level) {
+    detail::MeshoptInput input;
+    input.normals = normals;
+    input.triangles = m.triangles;
+    if (grid.fits) {
+        input.grid_positions.reserve(m.points.size());
+        for (const auto& p : m.points) {
+            std::array<std::uint16_t, 3> q{};
+            for (int k = 0; k < 3; ++k) {
+                q[k] =
+                    static_cast<std::uint16_t>(std::nearbyint((p[k] - grid.origin[k]) / grid.step));
+            }
+            input.grid_positions.push_back(q);
+        }
+    } else {
+        input.float_positions = m.points;
+    }
+    try {
+        level.meshopt = detail::encode_meshopt_mesh(input);
+    } catch (const Error& e) {
+        fail(e.code(), path, where + ": " + e.what());
+    }
+}
+
+/// The JSON and binary data being assembled: buffer 0 is the GLB's BIN chunk; with meshopt,
+/// buffer 1 is the decoded data's (fallback) buffer, which has no bytes.
+class Assembly {
+public:
+    Json json;
+    std::string bin;
+    std::size_t fallback_bytes = 0;
+
+    int add_view(const std::string& bytes) {
+        Json view = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes.size()}};
+        append(bytes);
+        json["bufferViews"].push_back(view);
+        return static_cast<int>(json["bufferViews"].size() - 1);
+    }
+
+    /// A view of the decoded data whose bytes are the meshopt stream `s` in buffer 0.
+    int add_meshopt_view(const detail::MeshoptStream& s, bool indices) {
+        const std::size_t length = std::size_t(s.count) * s.byte_stride;
+        Json compressed = {{"buffer", 0},
+                           {"byteOffset", bin.size()},
+                           {"byteLength", s.bytes.size()},
+                           {"byteStride", s.byte_stride},
+                           {"mode", indices ? "TRIANGLES" : "ATTRIBUTES"},
+                           {"count", s.count}};
+        append(s.bytes);
+        Json view = {{"buffer", 1}, {"byteOffset", fallback_bytes}, {"byteLength", length}};
+        if (!indices) {
+            view["byteStride"] = s.byte_stride;
+        }
+        view["target"] = indices ? kElementArrayBuffer : kArrayBuffer;
+        view["extensions"][kMeshopt] = compressed;
+        fallback_bytes += (length + 3) / 4 * 4;
+        json["bufferViews"].push_back(view);
+        return static_cast<int>(json["bufferViews"].size() - 1);
+    }
+
+    int add_accessor(Json accessor) {
+        json["accessors"].push_back(std::move(accessor));
+        return static_cast<int>(json["accessors"].size() - 1);
+    }
+
+private:
+    void append(const std::string& bytes) {
+        bin += bytes;
+        bin.resize((bin.size() + 3) / 4 * 4, '\0');
+    }
+};
+
+Json json_array(const auto& values) {
+    Json a = Json::array();
+    for (const auto v : values) {
+        a.push_back(v);
+    }
+    return a;
+}
+
+/// The mesh of one level: one primitive, its accessors and views.
+Json level_primitive(Assembly& a, const EncodedLevel& level, bool draco, int material) {
+    Json primitive;
+    if (draco) {
+        const int view = a.add_view(level.draco);
+        const int position = a.add_accessor({{"componentType", kFloat},
+                                             {"count", level.points},
+                                             {"type", "VEC3"},
+                                             {"min", json_array(level.min)},
+                                             {"max", json_array(level.max)}});
+        const int normal =
+            a.add_accessor({{"componentType", kFloat}, {"count", level.points}, {"type", "VEC3"}});
+        const int indices = a.add_accessor(
+            {{"componentType", level.points <= kMaxShortVertices ? kUnsignedShort : kUnsignedInt},
+             {"count", 3 * level.triangles},
+             {"type", "SCALAR"}});
+        primitive["attributes"] = {{"POSITION", position}, {"NORMAL", normal}};
+        primitive["indices"] = indices;
+        primitive["extensions"][kDraco] = {
+            {"bufferView", view},
+            {"attributes", {{"POSITION", level.position_id}, {"NORMAL", level.normal_id}}}};
+    } else {
+        const detail::MeshoptMesh& m = level.meshopt;
+        const int pv = a.add_meshopt_view(m.positions, false);
+        const int nv = a.add_meshopt_view(m.normals, false);
+        const int iv = a.add_meshopt_view(m.indices, true);
+        const int position =
+            a.add_accessor({{"bufferView", pv},
+                            {"componentType", m.float_positions ? kFloat : kUnsignedShort},
+                            {"count", m.positions.count},
+                            {"type", "VEC3"},
+                            {"min", json_array(m.min)},
+                            {"max", json_array(m.max)}});
+        const int normal = a.add_accessor({{"bufferView", nv},
+                                           {"componentType", kByte},
+                                           {"normalized", true},
+                                           {"count", m.normals.count},
+                                           {"type", "VEC3"}});
+        const int indices = a.add_accessor(
+            {{"bufferView", iv},
+             {"componentType", m.indices.byte_stride == 2 ? kUnsignedShort : kUnsignedInt},
+             {"count", m.indices.count},
+             {"type", "SCALAR"}});
+        primitive["attributes"] = {{"POSITION", position}, {"NORMAL", normal}};
+        primitive["indices"] = indices;
+    }
+    primitive["material"] = material;
+    return primitive;
+}
+
+/// The smallest 7-significant-digit decimal (as parsed back) >= x.
+double short_up(double x) {
+    char text[64];
+    for (double up = x;;
+         up = std::nextafter(up + std::abs(up) * 1e-7, std::numeric_limits<double>::infinity())) {
+        std::snprintf(text, sizeof text, "%.7g", up);
+        const double r = std::strtod(text, nullptr);
+        if (r >= x || !std::isfinite(r)) {
+            return r >= x ? r : x;
+        }
+    }
+}
+
+/// A short decimal <= x (screen coverage thresholds may only shrink: a smaller threshold keeps
+/// the finer level longer).
+double short_down(double x) {
+    return -short_up(-x);
+}
+
+}  // namespace
+
+std::vector<MultiresCut> lod_cuts(const MultiresMesh& model,
+                                  double mm_per_px,
+                                  const LodOptions& options) {
+    std::vector<MultiresCut> candidates;
+    if (!options.error_mm.empty()) {
+        for (const double e : options.error_mm) {
+            candidates.push_back(select_cut_by_error(model, e / mm_per_px));
+        }
+    } else {
+        const std::uint32_t levels = level_count(model);
+        const std::uint32_t n = std::min<std::uint32_t>(options.level_count, levels);
+        for (std::uint32_t i = 0; i < n; ++i) {
+            const std::uint32_t level =
+                n == 1
+                    ? 0
+                    : static_cast<std::uint32_t>(std::lround(double(i) * (levels - 1) / (n - 1)));
+            candidates.push_back(select_cut_at_level(model, level));
+        }
+    }
+    // Keep cuts that are coarser and declare a larger bound than the previous one; a coarser cut
+    // with the same bound replaces it (the finer one would never be worth its triangles).
+    std::vector<MultiresCut> cuts;
+    for (MultiresCut& cut : candidates) {
+        if (!cuts.empty() && cut.clusters == cuts.back().clusters) {
+            continue;
+        }
+        if (!cuts.empty() && !(cut.error_px > cuts.back().error_px)) {
+            cuts.back() = std::move(cut);
+            continue;
+        }
+        cuts.push_back(std::move(cut));
+    }
+    return cuts;
+}
+
+LodStats write_lod_gltf(const std::filesystem::path& path,
+                        const std::vector<LodObject>& objects,
+                        const SliceFrame& frame,
+                        const SceneInfo& info,
+                        const LodOptions& options) {
+    if (lowercase_extension(path) != ".glb") {
+        fail(ErrorCode::Unsupported, path,
+             "unsupported extension '" + path.extension().string() + "', expected .glb");
+    }
+    check_options(path, options);
+    if (objects.empty()) {
+        fail(ErrorCode::InvalidInput, path, "no objects to write, expected at least one");
+    }
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+        const LodObject& o = objects[i];
+        const std::string what = "object " + std::to_string(i) + " '" + object_name(o) + "'";
+        if (o.model == nullptr || o.model->clusters.empty()) {
+            fail(ErrorCode::InvalidInput, path, what + " has no model");
+        }
+        if (!(o.model->grid_step > 0.0)) {
+            fail(ErrorCode::InvalidInput, path,
+                 what + ": its model is not on a grid (grid_step 0), expected a quantized model");
+        }
+        for (const double c : o.srgb) {
+            if (!(c >= 0.0 && c <= 1.0)) {
+                fail(ErrorCode::InvalidInput, path,
+                     what + ": colour channel " + std::to_string(c) + ", expected sRGB in [0, 1]");
+            }
+        }
+    }
+    const StorageFrame storage = storage_frame(path, frame);
+    const bool draco = options.compression == LodCompression::Draco;
+
+    // Encode every level of every object.
+    std::vector<std::vector<EncodedLevel>> levels(objects.size());
+    std::vector<MeshoptGrid> grids(objects.size());
+    std::vector<double> radius_mm(objects.size(), 0.0);
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        const MultiresMesh& model = *objects[o].model;
+        if (!draco) {
+            grids[o] = meshopt_grid(model, storage);
+        }
+        const std::vector<MultiresCut> cuts = lod_cuts(model, frame.error_mm_per_px, options);
+        for (std::size_t i = 0; i < cuts.size(); ++i) {
+            const std::string where =
+                "object '" + object_name(objects[o]) + "' LOD" + std::to_string(i);
+            EncodedLevel level;
+            level.cut = cuts[i];
+            const TriMesh mesh = cut_mesh(model, level.cut);
+            level.triangles = mesh.triangles.size();
+            level.vertices = mesh.positions.size();
+            level.model_level = 0;
+            for (const std::uint32_t c : level.cut.clusters) {
+                level.model_level = std::max(level.model_level, model.clusters[c].level);
+            }
+            const StorageMesh m = storage_mesh(mesh, storage, model.grid_step);
+            const auto normals = storage_normals(m);
+            if (i == 0) {
+                // Bounding sphere of the finest level in the patient frame: the box's half
+                // diagonal (the patient -> glTF map is a rotation and scale, so boxes stay boxes).
+                Vec3 lo{std::numeric_limits<double>::infinity(),
+                        std::numeric_limits<double>::infinity(),
+                        std::numeric_limits<double>::infinity()};
+                Vec3 hi = -1.0 * lo;
+                for (const auto& p : m.points) {
+                    const Vec3 w = transform(storage.matrix, {p[0], p[1], p[2]});
+                    for (int k = 0; k < 3; ++k) {
+                        lo[k] = std::min(lo[k], w[k]);
+                        hi[k] = std::max(hi[k], w[k]);
+                    }
+                }
+                radius_mm[o] = 0.5 * norm(hi - lo);
+            }
+            if (draco) {
+                encode_draco(path, where, m, normals, model.grid_step, options, level);
+            } else {
+                encode_meshopt(path, where, m, normals, grids[o], level);
+            }
+            levels[o].push_back(std::move(level));
+        }
+    }
+
+    Assembly a;
+    Json& json = a.json;
+    json["asset"] = {{"version", "2.0"}, {"generator", info.generator}};
+    json["extensionsUsed"] = Json::array();
+    json["extensionsRequired"] = Json::array();
+    json["extensionsUsed"].push_back(kLod);
+    if (draco) {
+        json["extensionsUsed"].push_back(kDraco);
+        json["extensionsRequired"].push_back(kDraco);
+    } else {
+        json["extensionsUsed"].push_back(kMeshopt);
+        json["extensionsUsed"].push_back(kQuantization);
+        json["extensionsRequired"].push_back(kMeshopt);
+        json["extensionsRequired"].push_back(kQuantization);
+    }
+    json["scene"] = 0;
+    json["scenes"] = Json::array({{{"nodes", Json::array({0})}}});
+    json["nodes"] = Json::array();
+    json["meshes"] = Json::array();
+    json["materials"] = Json::array();
+    json["accessors"] = Json::array();
+    json["bufferViews"] = Json::array();
+    json["nodes"].push_back({{"name", "patient"},
+                             {"matrix", json_array(detail::kPatientToGltf)},
+                             {"children", Json::array()}});
+
+    // Materials, meshes coarse-first in the buffer (every object's coarsest level, then the next).
+    std::vector<std::vector<int>> mesh_of(objects.size());
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        const LodObject& object = objects[o];
+        json["materials"].push_back(
+            {{"name", object_name(object)},
+             {"pbrMetallicRoughness",
+              {{"baseColorFactor",
+                {detail::srgb_to_linear(object.srgb[0]), detail::srgb_to_linear(object.srgb[1]),
+                 detail::srgb_to_linear(object.srgb[2]), 1.0}},
+               {"metallicFactor", 0.0},
+               {"roughnessFactor", kRoughness}}}});
+        mesh_of[o].assign(levels[o].size(), -1);
+    }
+    std::size_t most_levels = 0;
+    for (const auto& l : levels) {
+        most_levels = std::max(most_levels, l.size());
+    }
+    LodStats stats;
+    stats.objects.resize(objects.size());
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        stats.objects[o].resize(levels[o].size());
+    }
+    for (std::size_t rank = 0; rank < most_levels; ++rank) {  // rank 0: coarsest
+        for (std::size_t o = 0; o < objects.size(); ++o) {
+            if (rank >= levels[o].size()) {
+                continue;
+            }
+            const std::size_t i = levels[o].size() - 1 - rank;
+            const std::size_t before = a.bin.size();
+            Json primitive = level_primitive(a, levels[o][i], draco, static_cast<int>(o));
+            json["meshes"].push_back(
+                {{"name", object_name(objects[o]) + "_LOD" + std::to_string(i)},
+                 {"primitives", Json::array({primitive})}});
+            mesh_of[o][i] = static_cast<int>(json["meshes"].size() - 1);
+            LodLevelStats& s = stats.objects[o][i];
+            s.bytes = a.bin.size() - before;
+            s.triangles = levels[o][i].triangles;
+            s.vertices = levels[o][i].vertices;
+            s.model_level = levels[o][i].model_level;
+            s.error_mm = levels[o][i].cut.error_px * frame.error_mm_per_px;
+        }
+    }
+
+    // Nodes: per object LOD0 under the root, the coarser ones after it (outside the hierarchy).
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        const LodObject& object = objects[o];
+        std::array<double, 16> matrix = storage.matrix;
+        if (!draco && grids[o].fits) {
+            const double q = grids[o].step;
+            const std::array<double, 16> dequantize{q,
+                                                    0,
+                                                    0,
+                                                    0,
+                                                    0,
+                                                    q,
+                                                    0,
+                                                    0,
+                                                    0,
+                                                    0,
+                                                    q,
+                                                    0,
+                                                    grids[o].origin[0],
+                                                    grids[o].origin[1],
+                                                    grids[o].origin[2],
+                                                    1};
+            matrix = multiply(storage.matrix, dequantize);
+        }
+        const std::size_t n = levels[o].size();
+        const int first = static_cast<int>(json["nodes"].size());
+        // Bounds as written (7 digits, rounded up); the coverage is computed from them.
+        std::vector<double> written(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            written[i] = short_up(stats.objects[o][i].error_mm);
+        }
+        const Json errors = json_array(written);
+        Json coverage = Json::array();
+        for (std::size_t i = 0; i + 1 < n; ++i) {
+            // Level i + 1 projects its bound to at most screen_error_px while the sphere's
+            // projected radius R (px) <= screen_error_px * r / e_{i+1}; coverage =
+            // pi (R / H)^2 / aspect, rounded down (a smaller threshold keeps level i longer).
+            const double r_px = options.screen_error_px * radius_mm[o] / written[i + 1];
+            const double c =
+                std::numbers::pi * std::pow(r_px / options.viewport_height_px, 2) / options.aspect;
+            coverage.push_back(std::clamp(short_down(c), 0.0, 1.0));
+        }
+        coverage.push_back(0.0);  // the coarsest is never culled
+        for (std::size_t i = 0; i < n; ++i) {
+            Json node;
+            node["name"] = object_name(object) + "_LOD" + std::to_string(i);
+            node["mesh"] = mesh_of[o][i];
+            node["matrix"] = json_array(matrix);
+            Json extras = {{"lod", i},
+                           {"error_mm", errors[i]},
+                           {"triangles", levels[o][i].triangles},
+                           {"label", object.label},
+                           {"source", info.source},
+                           {"spacing_mm", json_array(info.spacing_mm)},
+                           {"units", "mm"}};
+            if (i == 0) {
+                if (n > 1) {
+                    Json ids = Json::array();
+                    for (std::size_t k = 1; k < n; ++k) {
+                        ids.push_back(first + static_cast<int>(k));
+                    }
+                    node["extensions"][kLod] = {{"ids", ids}};
+                }
+                extras["MSFT_screencoverage"] = coverage;
+                extras["lod_error_mm"] = errors;
+                extras["screen_error_px"] = options.screen_error_px;
+                extras["viewport_height_px"] = options.viewport_height_px;
+                extras["aspect"] = options.aspect;
+                extras["bounding_radius_mm"] = short_up(radius_mm[o]);
+                json["nodes"][0]["children"].push_back(first);
+            }
+            node["extras"] = extras;
+            json["nodes"].push_back(node);
+        }
+    }
+    json["buffers"] = Json::array({{{"byteLength", a.bin.size()}}});
+    if (!draco) {
+        json["buffers"].push_back(
+            {{"byteLength", a.fallback_bytes}, {"extensions", {{kMeshopt, {{"fallback", true}}}}}});
+    }
+    const std::string bytes = detail::glb_container(path, json.dump(), a.bin);
+    write_file_atomically(path, bytes);
+    stats.total_bytes = bytes.size();
+    return stats;
+}
+
+}  // namespace strata
