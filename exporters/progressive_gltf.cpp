@@ -62,6 +62,36 @@ std::string object_name(const ProgressiveObject& object) {
     return object.name.empty() ? "label " + std::to_string(object.label) : object.name;
 }
 
+/// The double parsed from the shortest decimal that gives `x`'s float back.
+double short_float_decimal(double x) {
+    const float f = to_float(x);
+    char text[64];
+    for (int digits = 1; digits <= 9; ++digits) {
+        std::snprintf(text, sizeof text, "%.*g", digits, double(f));
+        const double back = std::strtod(text, nullptr);
+        if (to_float(back) == f) {
+            return back;
+        }
+    }
+    return double(f);
+}
+
+/// A JSON number: an integer when `x` is one (prints without ".0"), else `x`.
+Json json_number(double x) {
+    if (x == std::nearbyint(x) && std::abs(x) < 9.0e15) {
+        return static_cast<std::int64_t>(x);
+    }
+    return x;
+}
+
+Json json_numbers(const std::array<double, 16>& values) {
+    Json out = Json::array();
+    for (const double v : values) {
+        out.push_back(json_number(v));
+    }
+    return out;
+}
+
 /// Storage frame of one object: grid coordinates (x px, y px, z in slices, x negated when the
 /// slice frame mirrors) and the maps out of it.
 struct StorageFrame {
@@ -116,19 +146,25 @@ StorageFrame storage_frame(const std::filesystem::path& path, const SliceFrame& 
     s.matrix[13] = frame.origin[1];
     s.matrix[14] = frame.origin[2];
     s.matrix[15] = 1.0;
-    // scene = P * (L p + o), P the patient -> glTF matrix (column-major 4 x 4)
+    // The matrix as written: each entry the shortest decimal of its float (JSON bytes: about 80
+    // per object; the frame moves by float rounding, < 1e-7 relative, far below the grid step);
+    // everything below is computed from the written matrix.
+    for (double& m : s.matrix) {
+        m = short_float_decimal(m);
+    }
+    // scene = P * (M q + t), q = (flip x, y, z / d) the storage coordinates of slice-space p
     const auto& p = detail::kPatientToGltf;
     for (int r = 0; r < 3; ++r) {
         for (int c = 0; c < 3; ++c) {
             double sum = 0.0;
             for (int k = 0; k < 3; ++k) {
-                sum += p[4 * k + r] * l[3 * k + c];
+                sum += p[4 * k + r] * s.matrix[4 * c + k];
             }
-            s.to_scene[3 * r + c] = sum;
+            s.to_scene[3 * r + c] = sum / scale[c];
         }
         double o = p[12 + r];
         for (int k = 0; k < 3; ++k) {
-            o += p[4 * k + r] * frame.origin[k];
+            o += p[4 * k + r] * s.matrix[12 + k];
         }
         s.scene_origin[r] = o;
     }
@@ -297,11 +333,12 @@ void check_decoded(const EncodedMesh& mesh,
     using Tagged = std::pair<std::uint32_t, std::array<std::uint32_t, 3>>;
     std::vector<Tagged> expected, got;
     for (std::size_t t = 0; t < in.triangles.size(); ++t) {
-        expected.push_back({in.triangle_cluster[t], canonical(in.triangles[t])});
+        expected.push_back(
+            {in.triangle_cluster.empty() ? 0 : in.triangle_cluster[t], canonical(in.triangles[t])});
     }
     for (std::size_t t = 0; t < d.triangles.size(); ++t) {
         const auto& tri = d.triangles[t];
-        got.push_back({d.triangle_cluster[t],
+        got.push_back({d.triangle_cluster.empty() ? 0 : d.triangle_cluster[t],
                        canonical({vertex_of[tri[0]], vertex_of[tri[1]], vertex_of[tri[2]]})});
     }
     std::sort(expected.begin(), expected.end());
@@ -391,6 +428,9 @@ EncodedMesh base_mesh(const ObjectGrid& grid,
         const Vec3 n = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * s : Vec3{0, 0, 1};
         in.normals.push_back({to_float(n.x), to_float(n.y), to_float(n.z)});
     }
+    if (roots.size() == 1) {
+        in.triangle_cluster.clear();  // no _CLUSTER: every triangle is the one root's
+    }
     return encode_checked(in, {}, static_cast<std::uint32_t>(roots.size()), options, where);
 }
 
@@ -429,10 +469,12 @@ Json base_mesh_json(
                                                              {"max", base.max}});
     attributes[key(format::kNormal)] = add_accessor(
         json, {{"componentType", format::kFloat}, {"count", base.points}, {"type", "VEC3"}});
-    attributes[key(format::kCluster)] = add_accessor(
-        json, {{"componentType", roots > 256 ? format::kUnsignedShort : format::kUnsignedByte},
-               {"count", base.points},
-               {"type", "SCALAR"}});
+    if (base.ids.cluster_id >= 0) {  // absent when there is one root
+        attributes[key(format::kCluster)] = add_accessor(
+            json, {{"componentType", roots > 256 ? format::kUnsignedShort : format::kUnsignedByte},
+                   {"count", base.points},
+                   {"type", "SCALAR"}});
+    }
     Json primitive;
     primitive["attributes"] = attributes;
     primitive["indices"] = add_accessor(
@@ -445,8 +487,11 @@ Json base_mesh_json(
         {"bufferView", view},
         {"attributes",
          {{key(format::kPosition), base.ids.position_id},
-          {key(format::kNormal), base.ids.normal_id},
-          {key(format::kCluster), base.ids.cluster_id}}}};
+          {key(format::kNormal), base.ids.normal_id}}}};
+    if (base.ids.cluster_id >= 0) {
+        primitive["extensions"][key(format::kDraco)]["attributes"][key(format::kCluster)] =
+            base.ids.cluster_id;
+    }
     // unnamed: the node carries the object's name (JSON bytes)
     return {{"primitives", Json::array({std::move(primitive)})}};
 }
@@ -524,14 +569,14 @@ void write_object(Json& json,
     const int base_view = buffer.add(false, base.bytes);
     const int chunks_view = buffer.add(true, chunk_bytes);
 
+    // unnamed, as the mesh: the node carries the object's name (JSON bytes)
     json["materials"].push_back(
-        {{"name", name},
-         {"pbrMetallicRoughness",
+        {{"pbrMetallicRoughness",
           {{"baseColorFactor",
             {short_decimal(detail::srgb_to_linear(object.srgb[0]), kColorDecimals),
              short_decimal(detail::srgb_to_linear(object.srgb[1]), kColorDecimals),
-             short_decimal(detail::srgb_to_linear(object.srgb[2]), kColorDecimals), 1.0}},
-           {"metallicFactor", 0.0},
+             short_decimal(detail::srgb_to_linear(object.srgb[2]), kColorDecimals), 1}},
+           {"metallicFactor", 0},
            {"roughnessFactor", kRoughness}}}});
     const int material = static_cast<int>(json["materials"].size() - 1);
     json["meshes"].push_back(base_mesh_json(json, base, base_view, model.roots().size(), material));
@@ -543,7 +588,7 @@ void write_object(Json& json,
     Json node;
     node["name"] = name;
     node["mesh"] = json["meshes"].size() - 1;
-    node["matrix"] = storage.matrix;
+    node["matrix"] = json_numbers(storage.matrix);
     node["extensions"][key(format::kExtension)] = {
         {"version", format::kVersion},
         {"dag", dag_view},
@@ -682,7 +727,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     // what all objects share is said once, on the root node (JSON bytes)
     json["nodes"].push_back(
         {{"name", "patient"},
-         {"matrix", detail::kPatientToGltf},
+         {"matrix", json_numbers(detail::kPatientToGltf)},
          {"children", Json::array()},
          {"extras",
           {{"source", info.source}, {"spacing_mm", info.spacing_mm}, {"error_unit", "m"}}}});

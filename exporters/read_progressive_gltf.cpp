@@ -343,14 +343,19 @@ ParsedBase parse_base(const JsonReader& r, const Data& data, std::size_t mesh) {
     const auto id = [&](std::string_view name) {
         return static_cast<int>(r.index(ids, key(name), at + "/attributes", 1u << 16, "Draco id"));
     };
-    base.ids = {id(format::kPosition), id(format::kCluster), -1, id(format::kNormal)};
+    // _CLUSTER is absent when the object has one root
+    const bool clustered = JsonReader::find(ids, key(format::kCluster)) != nullptr ||
+                           JsonReader::find(attributes, key(format::kCluster)) != nullptr;
+    base.ids = {id(format::kPosition), clustered ? id(format::kCluster) : -1, -1,
+                id(format::kNormal)};
     const std::string aw = pw + "/attributes";
     base.points =
         draco_accessor(r, attributes, key(format::kPosition), aw, {format::kFloat}, "VEC3");
     if (draco_accessor(r, attributes, key(format::kNormal), aw, {format::kFloat}, "VEC3") !=
             base.points ||
-        draco_accessor(r, attributes, key(format::kCluster), aw,
-                       {format::kUnsignedByte, format::kUnsignedShort}, "SCALAR") != base.points) {
+        (clustered && draco_accessor(r, attributes, key(format::kCluster), aw,
+                                     {format::kUnsignedByte, format::kUnsignedShort},
+                                     "SCALAR") != base.points)) {
         r.fail(aw, "the attributes' accessors disagree on the number of points");
     }
     base.indices = draco_accessor(r, primitive, "indices", pw,
@@ -567,7 +572,8 @@ std::vector<std::uint32_t> add_clusters(const JsonReader& r,
     std::vector<std::vector<std::array<std::uint32_t, 3>>> triangles(clusters.size());
     for (std::size_t t = 0; t < d.triangles.size(); ++t) {
         const auto& tri = d.triangles[t];
-        triangles[d.triangle_cluster[t]].push_back({id[tri[0]], id[tri[1]], id[tri[2]]});
+        const std::uint32_t k = d.triangle_cluster.empty() ? 0 : d.triangle_cluster[t];
+        triangles[k].push_back({id[tri[0]], id[tri[1]], id[tri[2]]});
     }
     for (std::size_t k = 0; k < clusters.size(); ++k) {
         if (triangles[k].empty()) {
@@ -641,6 +647,10 @@ ProgressiveFileObject decode_object(const JsonReader& r, ParsedObject& p, const 
         }
     };
     const std::string base_where = p.where + " (base mesh)";
+    if (p.base.ids.cluster < 0 && graph.roots.size() != 1) {
+        r.fail(base_where, std::to_string(graph.roots.size()) +
+                               " root clusters but no _CLUSTER attribute, expected one root");
+    }
     const detail::DecodedChunk base =
         decode(p.base.bytes, p.base.ids, graph.roots.size(), base_where);
     if (base.points != p.base.points || 3 * base.triangles.size() != p.base.indices) {

@@ -323,10 +323,9 @@ TEST(ReadProgressiveGltf, CorruptFilesAreRejectedWithWhatAndWhere) {
     // the base: accessors that disagree with the Draco data
     expect_rejected(mutated([&](Glb& g) {
                         const int base = g.json["nodes"][1]["mesh"];
-                        for (const char* name : {"POSITION", "NORMAL", "_CLUSTER"}) {
-                            const int a =
-                                g.json["meshes"][base]["primitives"][0]["attributes"][name];
-                            g.json["accessors"][a]["count"] = 3;
+                        for (const auto& [name, a] :
+                             g.json["meshes"][base]["primitives"][0]["attributes"].items()) {
+                            g.json["accessors"][a.get<int>()]["count"] = 3;
                         }
                     }),
                     "the accessors say");
