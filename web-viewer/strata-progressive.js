@@ -227,12 +227,7 @@ export class StrataObjectController {
         const index = geometry.index
             ? Uint32Array.from(geometry.index.array)
             : Uint32Array.from({ length: position.count }, (_, i) => i);
-        const { order, start } = splitByCluster(
-            index,
-            scalarValues(clusterAttribute),
-            roots.length,
-            `${this.name} base`,
-        );
+        const { order, start } = splitByCluster(index, clusterValues, roots.length, `${this.name} base`);
         const rootTriangles = new Map();
         const shared = this.chunkGeometry(positions, positions, order);
         roots.forEach((c, k) => {
