@@ -28,6 +28,7 @@
 #include "exporters/detail/draco_chunk.h"
 #include "exporters/detail/gltf_common.h"
 #include "exporters/progressive_format.h"
+#include "mesh/shading_normals.h"
 
 namespace strata {
 
@@ -405,28 +406,35 @@ EncodedMesh group_chunk(const ObjectGrid& grid,
                           where);
 }
 
-/// The base mesh: every root cluster (`_CLUSTER` k = k-th root), with the area-weighted vertex
-/// normals of the base surface.
+/// The base mesh: every root cluster (`_CLUSTER` k = k-th root), with the shading normals of the
+/// base surface (mesh/shading_normals.h, computed in patient millimetres through the node matrix,
+/// as the viewer computes them over a drawn cut), brought back to the storage frame.
 EncodedMesh base_mesh(const ObjectGrid& grid,
+                      const std::array<double, 16>& matrix,
                       const std::vector<std::uint32_t>& roots,
                       const ProgressiveOptions& options,
                       const std::string& where) {
     std::vector<std::uint32_t> vertices;
     detail::DracoChunkInput in = mesh_input(grid, roots, vertices);
-    std::vector<Vec3> sum(in.positions.size());
-    const auto at = [&](std::uint32_t v) {
-        return Vec3{in.positions[v][0], in.positions[v][1], in.positions[v][2]};
-    };
-    for (const auto& t : in.triangles) {
-        const Vec3 n = cross(at(t[1]) - at(t[0]), at(t[2]) - at(t[0]));
-        for (const std::uint32_t v : t) {
-            sum[v] = sum[v] + n;
+    TriMesh patient;
+    for (const auto& q : in.positions) {
+        Vec3 p;
+        for (int r = 0; r < 3; ++r) {
+            p[r] = matrix[12 + r] + matrix[r] * q[0] + matrix[4 + r] * q[1] + matrix[8 + r] * q[2];
         }
+        patient.positions.push_back(p);
     }
-    for (const Vec3& s : sum) {
-        const double length = norm(s);
-        const Vec3 n = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * s : Vec3{0, 0, 1};
-        in.normals.push_back({to_float(n.x), to_float(n.y), to_float(n.z)});
+    patient.triangles = in.triangles;  // the matrix does not mirror: outward stays outward
+    for (const Vec3& n : shading_normals(patient)) {
+        // normals map by the inverse transpose; for M = rotation x positive scales that is
+        // M^T up to a positive scale per axis, which the normalization removes
+        Vec3 m;
+        for (int c = 0; c < 3; ++c) {
+            m[c] = matrix[4 * c] * n.x + matrix[4 * c + 1] * n.y + matrix[4 * c + 2] * n.z;
+        }
+        const double length = norm(m);
+        const Vec3 u = (length > 0.0 && std::isfinite(length)) ? (1.0 / length) * m : Vec3{0, 0, 1};
+        in.normals.push_back({to_float(u.x), to_float(u.y), to_float(u.z)});
     }
     if (roots.size() == 1) {
         in.triangle_cluster.clear();  // no _CLUSTER: every triangle is the one root's
@@ -549,7 +557,8 @@ void write_object(Json& json,
     parallel_for(model.groups.size(), options.threads, [&](std::size_t g) {
         chunks[g] = group_chunk(grid, g, options, "'" + name + "' group " + std::to_string(g));
     });
-    const EncodedMesh base = base_mesh(grid, model.roots(), options, "'" + name + "' base mesh");
+    const EncodedMesh base =
+        base_mesh(grid, storage.matrix, model.roots(), options, "'" + name + "' base mesh");
 
     // chunks, parents first (coarse first), each 4-byte aligned in the object's chunks view
     std::string chunk_bytes;

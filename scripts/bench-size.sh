@@ -1,39 +1,44 @@
 #!/usr/bin/env bash
-# Size of the progressive glTF against its peers (issue 7), side by side in one run, and the
-# cluster-size sweep of DESIGN.md section 4. For each case (phantoms and files of
-# ../shared/data, every label an object, as `strata build` does) tests/bench/progressive_size
-# reconstructs the surfaces, writes the progressive model.glb and reports its total bytes (= bytes
-# to full resolution), base bytes and level-0 chunk bytes against
-#   Draco     single-rate Draco of each object's full-resolution mesh, with the encoder settings
-#             and the lossless grid quantization of our chunks (raw bytes, POSITION + NORMAL and
-#             POSITION only, and a minimal .glb of them);
-#   gltfpack  npm gltfpack (meshoptimizer, WASM) on the plain full-resolution scene.glb, -cc and
-#             -cc -vp B with B bits matching our grid's in-plane resolution;
-# then where our bytes go (positions, normals, _COARSE_POSITION, JSON, base) and the sweep of
-# cluster sizes (total bytes, bytes to full resolution, ratio to single-rate Draco, chunk size).
+# Size of the progressive glTF (STRATA_progressive_mesh version 2) against its peers (issue 16),
+# side by side in one run. For each case (every label an object, as `strata build` does)
+# tests/bench/progressive_size reconstructs the surfaces, writes the progressive model.glb and
+# reports its total bytes (= bytes to full resolution), its base (GLB header + JSON + DAG tables +
+# base meshes: a first frame's bytes) and share, and its JSON per object, against
+#   Draco PN  single-rate Draco .glb of each object's full-resolution mesh, POSITION + NORMAL, with
+#             the encoder settings and the lossless grid quantization of our chunks;
+#   Draco P   the same without NORMAL (our chunks carry none: the viewer computes them);
+#   gltfpack  npm gltfpack -cc (meshoptimizer, WASM) on the plain full-resolution scene.glb;
+# then a sweep of the multiresolution parameters (keep fraction x cluster triangles: total /
+# Draco PN, base share, chunk count and size, triangles over all levels / level 0).
+# Cases: the torso, the TotalSegmentator example, the FreeSurfer aparc (../shared/data) and the
+# bench-e2e volume (scripts/bench_e2e_peer.py phantom, 512 x 512 x 256, seed 7, as
+# scripts/bench-e2e.sh makes it).
 #   bash scripts/bench-size.sh [--quick] [--build-dir DIR] [--keep DIR]
-#     --quick          one case (torus), sweep of 512 and 1024 on it
+#     --quick          one case (torus), sweep of 0.25 and 0.35 x 1024 on it
 #     --build-dir DIR  build there (default: build-bench in the repository; BUILD_DIR also works)
-#     --keep DIR       keep the written files (model.glb, scene.glb, draco.glb, gltfpack output
-#                      and the sweep's models) in DIR (default: a temp folder, removed)
-# Needs Node.js with npm (installed from Debian when missing and running as root) and the npm
-# package gltfpack, installed exactly as locked into scripts/node-bench (npm ci) when missing.
+#     --keep DIR       keep the written files (model.glb, scene.glb, draco.glb, draco_p.glb,
+#                      gltfpack output) in DIR (default: a temp folder, removed)
+# Needs Node.js with npm and the npm package gltfpack (installed exactly as locked into
+# scripts/node-bench, npm ci, when missing), and python3-numpy for the bench-e2e volume (both
+# installed from Debian when missing and running as root).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${BUILD_DIR:-$root/build-bench}"
 data="$root/../shared/data"
-cases=(phantom:sphere phantom:torus phantom:t36_organ_like phantom:scene
-       "stack:$data/niivue_torso/torsoLabel.nii.gz"
+python="${PYTHON:-/usr/bin/python3}"
+cases=("stack:$data/niivue_torso/torsoLabel.nii.gz"
        "stack:$data/totalsegmentator_abdomen/example_seg.nii.gz"
-       "stack:$data/pyradiomics_lung_tumor/lung2_label.nrrd"
-       "stack:$data/freesurfer_aparc_aseg/slices")
-sweep_cases=(phantom:t36_organ_like "stack:$data/niivue_torso/torsoLabel.nii.gz"
+       "stack:$data/freesurfer_aparc_aseg/slices"
+       e2e)
+sweep_cases=("stack:$data/niivue_torso/torsoLabel.nii.gz"
              "stack:$data/totalsegmentator_abdomen/example_seg.nii.gz")
-sweep=256,512,1024,2048,4096
+sweep_keep=0.2,0.25,0.35
+sweep_clusters=2048,4096
 keep=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
-        --quick) cases=(phantom:torus); sweep_cases=(phantom:torus); sweep=512,1024 ;;
+        --quick) cases=(phantom:torus); sweep_cases=(phantom:torus); sweep_keep=0.25,0.35
+                 sweep_clusters=1024 ;;
         --build-dir) build="$2"; shift ;;
         --keep) keep="$2"; shift ;;
         -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; exit 0 ;;
@@ -75,8 +80,24 @@ else
     trap 'rm -rf "$work"' EXIT
 fi
 
-args=(--work "$work" --gltfpack "$gltfpack" --sweep "$sweep")
+args=(--work "$work" --gltfpack "$gltfpack" --sweep-keep "$sweep_keep"
+      --sweep-clusters "$sweep_clusters")
 for c in "${cases[@]}"; do
+    if [[ "$c" == e2e ]]; then
+        # the bench-e2e volume, made as scripts/bench-e2e.sh makes it
+        if ! "$python" -c 'import numpy' 2>/dev/null; then
+            if [[ $(id -u) -eq 0 ]] && command -v apt-get >/dev/null; then
+                DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-numpy >/dev/null
+            else
+                echo "bench-size: missing python3-numpy for the bench-e2e volume" >&2
+                exit 1
+            fi
+        fi
+        mkdir -p "$work/e2e"
+        "$python" "$root/scripts/bench_e2e_peer.py" phantom "$work/e2e" --dims 512,512,256 \
+            --seed 7 >/dev/null
+        c="stack:$work/e2e/mask.nii.gz"
+    fi
     args+=(--case "$c")
 done
 for c in "${sweep_cases[@]}"; do
