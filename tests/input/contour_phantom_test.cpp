@@ -192,5 +192,57 @@ TEST(ContourPhantom, SectionsMatchTheInputPolygonsAndTheTruthBetweenPlanes) {
     }
 }
 
+TEST(ContourPhantom, TiltedPlanesKeepTheirSections) {
+    // A ball sliced on planes tilted 15 degrees about x (gantry tilt), 3 mm apart: the world mesh,
+    // taken into the planes' frame, must cut every plane in its input polygon within the bound.
+    const double a = 15.0 * kPi / 180.0;
+    const Vec3 n{0, -std::sin(a), std::cos(a)};
+    const Vec3 v{0, std::cos(a), std::sin(a)};
+    RawContourSet raw;
+    raw.source = "tilted phantom";
+    RawRoi ball;
+    ball.number = 1;
+    ball.name = "tilted ball";
+    std::vector<double> planes;
+    for (int k = -6; k <= 6; ++k) {
+        const double w = 3.0 * k + 0.7;
+        const double r = std::sqrt(kBallRadius * kBallRadius - w * w);
+        RawContour c;
+        for (const Vec3 q : circle({0, 0}, r, 0.0, false)) {
+            c.points.push_back(q.x * Vec3{1, 0, 0} + q.y * v + w * n);
+        }
+        ball.contours.push_back(c);
+        planes.push_back(w);
+    }
+    raw.rois = {ball};
+    Report report;
+    const PlanarContours contours = clean_planar_contours(raw, {}, report);
+    ASSERT_LT(norm(contours.normal - n), 1e-9);
+    ContourGridOptions grid;
+    grid.pitch_mm = 0.25;
+    const ContourFrame frame = contour_frame(contours, grid, report);
+    const Reconstruction result = reconstruct_contours(contours, frame, grid, {}, report);
+    ASSERT_EQ(result.surfaces.size(), 1u);
+    const ObjectSurface& surface = result.surfaces[0];
+    EXPECT_TRUE(surface.verification.ok()) << surface.verification.problem;
+    TriMesh mesh = surface_to_world(frame.stack, frame.slice_spacing_px, surface.mesh);
+    for (Vec3& p : mesh.positions) {  // world -> (u, v, w) of the planes, by the known tilt
+        p = {p.x, dot(p, v), dot(p, n)};
+    }
+    const double bound_mm =
+        (surface.contour_deviation_px + surface.grid_shift_px + kScanConversionPx) * frame.pitch_mm;
+    for (std::size_t k = 0; k < planes.size(); ++k) {
+        std::vector<Vec2> polygon;
+        for (const Vec3 p : raw.rois[0].contours[k].points) {
+            polygon.push_back({p.x, dot(p, v)});
+        }
+        const test::SectionReport section =
+            test::compare_slice_section(mesh, planes[k], {polygon}, bound_mm + 1e-9);
+        EXPECT_TRUE(section.ok()) << "plane " << planes[k] << ": " << section.max_mesh_to_contour_px
+                                  << " / " << section.max_contour_to_mesh_px << " mm, bound "
+                                  << bound_mm;
+    }
+}
+
 }  // namespace
 }  // namespace strata
