@@ -9,6 +9,7 @@ apt_packages=(
     g++ cmake make pkg-config git
     libopenimageio-dev openimageio-tools libopencv-core-dev  # image stacks (see PACKAGES.md)
     zlib1g-dev                                               # NIfTI .nii.gz, NRRD gzip
+    libdcmtk-dev                                             # DICOM RTSTRUCT (DCMTK dcmdata)
     nlohmann-json3-dev libcli11-dev
     libtinygltf-dev libdraco-dev                             # glTF writer, Draco chunks
     libmeshoptimizer-dev                                     # EXT_meshopt_compression (lods.glb)

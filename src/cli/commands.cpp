@@ -22,6 +22,7 @@
 #include "exporters/progressive_gltf.h"
 #include "exporters/read_progressive_gltf.h"
 #include "exporters/scene_gltf.h"
+#include "input/planar_contours.h"
 #include "input/read_slice_stack.h"
 #include "input/write_nifti.h"
 #include "input/write_slice_stack.h"
@@ -30,6 +31,7 @@
 #include "mesh/shading_normals.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
+#include "pipeline/reconstruct_contours.h"
 
 namespace strata::cli {
 
@@ -625,19 +627,44 @@ int run_build(const BuildOptions& options) {
     const LodRequest lod_request = parse_lod_levels(options.lod_levels);
     Report report;
     TerminalProgress progress(options.output.quiet || options.output.json);
-    const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
-                                        options.color_table, options.labels, progress, report);
-    const double input_seconds = seconds_since(start);
-
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
     reconstruct_options.multires.cluster_triangles = options.cluster_triangles;
     reconstruct_options.progress = progress.callback();
-    const Reconstruction result = reconstruct(stack, reconstruct_options, report);
+    SliceStack stack;
+    Reconstruction result;
+    double input_seconds = 0.0;
+    if (!options.input.empty() && is_planar_contour_file(options.input)) {
+        // Planar contours (RTSTRUCT, contour JSON): one reconstruction per structure, gathered
+        // in the contours' common frame.
+        PlanarContours contours =
+            clean_planar_contours(read_raw_contours(options.input, options.reference_ct),
+                                  ContourCleaningOptions{}, report);
+        if (!options.labels.empty()) {
+            select_contour_objects(contours, options.labels);
+        }
+        ContourGridOptions grid;
+        grid.pitch_mm = options.contour_pitch_mm;
+        ContourFrame frame = contour_frame(contours, grid, report);
+        input_seconds = seconds_since(start);
+        result = reconstruct_contours(contours, frame, grid, reconstruct_options, report);
+        stack = std::move(frame.stack);
+    } else {
+        if (!options.reference_ct.empty() || options.contour_pitch_mm > 0.0) {
+            throw Error(ErrorCode::InvalidInput,
+                        "--reference-ct and --contour-pitch apply to planar contour input "
+                        "(DICOM RTSTRUCT or contour JSON), not to '" +
+                            options.input + "'");
+        }
+        stack = load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
+                           options.labels, progress, report);
+        input_seconds = seconds_since(start);
+        result = reconstruct(stack, reconstruct_options, report);
+    }
     progress.finish();
 
-    if (!options.debug_dir.empty()) {
+    if (!options.debug_dir.empty() && stack.depth > 0) {
         const DebugView view = debug_view(stack);
         for (std::uint32_t k = 0; k < stack.depth; ++k) {
             char name[48];

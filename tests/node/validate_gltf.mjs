@@ -69,7 +69,8 @@ function allowedIssues(json) {
 /// EXT_meshopt_compression streams (named only by the extension) as maybe unused.
 function allowLodIssues(json, allowed) {
     const used = json?.extensionsUsed ?? [];
-    if (!used.includes('MSFT_lod')) {
+    // also the meshopt scene (scene_gltf's meshopt option): the same compressed data
+    if (!used.includes('MSFT_lod') && !used.includes('EXT_meshopt_compression')) {
         return;
     }
     used.forEach((name, i) => {
