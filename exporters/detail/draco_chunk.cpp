@@ -212,10 +212,14 @@ DracoChunkBytes encode_draco_chunk(const DracoChunkInput& in,
     encoder.SetAttributeExplicitQuantization(out.position_id, q.bits, 3, q.origin, q.range);
     encoder.SetAttributePredictionScheme(out.position_id,
                                          draco::MESH_PREDICTION_CONSTRAINED_MULTI_PARALLELOGRAM);
-    for (const int id : {out.cluster_id, out.slot_id}) {
-        if (id >= 0) {
-            encoder.SetAttributePredictionScheme(id, draco::PREDICTION_NONE);
-        }
+    // measured on the torus phantom (bench-size breakdown): _CLUSTER 1.2 kB without prediction,
+    // 0.3 kB with difference prediction (neighbours in the traversal share the cluster);
+    // _SLOT 1.8 kB without prediction, 2.3 kB with it
+    if (out.cluster_id >= 0) {
+        encoder.SetAttributePredictionScheme(out.cluster_id, draco::PREDICTION_DIFFERENCE);
+    }
+    if (out.slot_id >= 0) {
+        encoder.SetAttributePredictionScheme(out.slot_id, draco::PREDICTION_NONE);
     }
     if (out.normal_id >= 0) {
         encoder.SetAttributeQuantization(out.normal_id, normal_bits);

@@ -44,8 +44,8 @@ struct DracoChunkBytes {
 /// multi-parallelogram, which Draco itself picks only at its two slowest speeds (measured with
 /// scripts/bench-size.sh on the torso: positions -12 % against parallelogram; every Draco decoder
 /// build, the glTF-only one included, reads it); NORMAL octahedral with `normal_bits`, predicted
-/// from the positions; `_CLUSTER` (uint8, uint16 above 256 clusters) and `_SLOT` (uint8) without
-/// prediction (entropy coded as they are).
+/// from the positions; `_CLUSTER` (uint8, uint16 above 256 clusters) with difference prediction
+/// and `_SLOT` (uint8) without prediction (entropy coded as they are).
 /// \throw Error{InvalidInput} when the mesh spans more than 2^24 grid steps (float positions
 ///        would lose the grid); Error{Unsupported} when the origin or range would not survive
 ///        Draco's options text; Error{Internal} when Draco fails.

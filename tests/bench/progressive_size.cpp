@@ -707,13 +707,72 @@ Ours write_ours(const std::filesystem::path& path,
     return out;
 }
 
+/// Where the chunks' bytes go: every group's chunk re-encoded as the writer encodes it with
+/// POSITION only, + _CLUSTER, + _SLOT (the last is the file's chunk, checked by the caller).
+struct ChunkBreakdown {
+    std::size_t position = 0, cluster = 0, slot = 0;
+};
+
+ChunkBreakdown chunk_breakdown(const StorageModel& s) {
+    const MultiresMesh& model = *s.model;
+    const ProgressiveOptions options;
+    ChunkBreakdown out;
+    for (const MultiresGroup& group : model.groups) {
+        std::vector<std::uint32_t> vertices;
+        for (const std::uint32_t c : group.consumed) {
+            vertices.insert(vertices.end(), model.clusters[c].vertices.begin(),
+                            model.clusters[c].vertices.end());
+        }
+        std::sort(vertices.begin(), vertices.end());
+        vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+        const auto local = [&](std::uint32_t v) {
+            return static_cast<std::uint32_t>(
+                std::lower_bound(vertices.begin(), vertices.end(), v) - vertices.begin());
+        };
+        detail::DracoChunkInput in;
+        in.step = s.step;
+        std::vector<std::uint32_t> coarse(vertices.size());
+        for (const std::uint32_t v : vertices) {
+            in.positions.push_back(s.points[v]);
+        }
+        for (std::uint32_t k = 0; k < group.consumed.size(); ++k) {
+            const MultiresCluster& cluster = model.clusters[group.consumed[k]];
+            for (std::size_t i = 0; i < cluster.vertices.size(); ++i) {
+                coarse[local(cluster.vertices[i])] = local(cluster.coarse_vertices[i]);
+            }
+            for (const auto& t : cluster.triangles) {
+                const std::uint32_t a = local(cluster.vertices[t[0]]);
+                const std::uint32_t b = local(cluster.vertices[t[1]]);
+                const std::uint32_t c = local(cluster.vertices[t[2]]);
+                in.triangles.push_back(s.reverse ? std::array{a, c, b} : std::array{a, b, c});
+                in.triangle_cluster.push_back(k);
+            }
+        }
+        const std::vector<std::uint32_t> clusters = in.triangle_cluster;
+        in.triangle_cluster.clear();
+        out.position +=
+            detail::encode_draco_chunk(in, options.compression_level, options.normal_bits)
+                .bytes.size();
+        in.triangle_cluster = clusters;
+        out.cluster +=
+            detail::encode_draco_chunk(in, options.compression_level, options.normal_bits)
+                .bytes.size();
+        in.slots = detail::encode_slots(in.positions, in.triangles, coarse);
+        out.slot += detail::encode_draco_chunk(in, options.compression_level, options.normal_bits)
+                        .bytes.size();
+    }
+    return out;
+}
+
 struct MainRow {
     std::string name;
     std::size_t objects = 0;
     std::size_t triangles = 0;  ///< full resolution
     Ours ours;
     std::size_t draco_pn = 0, draco_p = 0;  ///< single-rate .glb bytes
+    std::size_t draco_p_raw = 0;            ///< the Draco P meshes alone, without the .glb
     std::optional<PackResult> pack;
+    ChunkBreakdown chunks;
 };
 
 struct SweepRow {
@@ -753,6 +812,22 @@ void print_main(const std::vector<MainRow>& rows) {
                  "quantization; Draco P: the same without NORMAL; gltfpack: -cc on scene.glb.\n"
                  "  base: GLB header + JSON + DAG tables + base meshes (a first frame's bytes); "
                  "aim B: 1000 per object + 10 per group.\n";
+    std::cout << "\nWhere the bytes go (kB): chunks re-encoded with POSITION only (welded, one per "
+                 "group), + _CLUSTER, + _SLOT (= the file's chunks); single-rate Draco P raw\n";
+    std::cout << pad("case", 24, true) << pad("P", 9) << pad("+CLUSTER", 9) << pad("+SLOT", 9)
+              << pad("slot %", 7) << pad("base kB", 8) << pad("JSON kB", 8) << pad("Draco P", 9)
+              << '\n';
+    for (const MainRow& r : rows) {
+        const ProgressiveStats& s = r.ours.stats;
+        std::cout << pad(r.name, 24, true) << pad(kb(r.chunks.position), 9)
+                  << pad(kb(r.chunks.cluster), 9) << pad(kb(r.chunks.slot), 9)
+                  << pad(fixed(100.0 * double(r.chunks.slot - r.chunks.cluster) /
+                                   double(s.total_bytes),
+                               1),
+                         7)
+                  << pad(kb(s.base_bytes), 8) << pad(kb(s.json_bytes), 8)
+                  << pad(kb(r.draco_p_raw), 9) << '\n';
+    }
 }
 
 void print_sweep(const std::vector<SweepRow>& rows) {
@@ -876,6 +951,18 @@ void run_case(const std::string& spec,
         const std::string draco_p = single_rate_draco(c, storage, objects, frame, false);
         write_bytes(work / "draco_p.glb", draco_p);
         row.draco_p = draco_p.size();
+        for (const StorageModel& s : storage) {
+            row.draco_p_raw += encode_patch(s, full_patch(s), false).bytes.size();
+            const ChunkBreakdown b = chunk_breakdown(s);
+            row.chunks.position += b.position;
+            row.chunks.cluster += b.cluster;
+            row.chunks.slot += b.slot;
+        }
+        if (row.chunks.slot != row.ours.stats.chunk_bytes) {
+            notes.push_back(c.name + ": re-encoded chunks give " + std::to_string(row.chunks.slot) +
+                            " bytes, the file " + std::to_string(row.ours.stats.chunk_bytes) +
+                            ": the breakdown does not replicate the writer");
+        }
         const std::filesystem::path scene =
             write_plain_scene(c, result, objects, work, row.triangles);
         row.pack = gltfpack(args.gltfpack, scene, work / "packed_cc.glb", {"-cc"}, notes);
