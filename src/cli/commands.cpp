@@ -1055,9 +1055,88 @@ int run_phantom(const PhantomCommandOptions& options) {
     return 0;
 }
 
+namespace {
+
+/// `strata info` of planar contours (RTSTRUCT, contour JSON): every structure as read and cleaned.
+int info_of_contours(const InfoOptions& options) {
+    Report report;
+    const PlanarContours contours = clean_planar_contours(read_raw_contours(options.input, ""),
+                                                          ContourCleaningOptions{}, report);
+    Json objects = Json::array();
+    for (const ContourObject& o : contours.objects) {
+        std::size_t count = 0;
+        for (const ContourPlane& plane : o.planes) {
+            count += plane.contours.size();
+        }
+        Json j = {{"number", o.number},
+                  {"name", o.name},
+                  {"interpreted_type", o.interpreted_type},
+                  {"color_srgb", {o.color[0], o.color[1], o.color[2]}},
+                  {"planes", o.planes.size()},
+                  {"contours", count},
+                  {"markers", o.markers.size()}};
+        if (!o.planes.empty()) {
+            j["plane_range_mm"] = {o.planes.front().w, o.planes.back().w};
+        }
+        objects.push_back(j);
+    }
+    Json j = {{"source", contours.source},
+              {"frame", contours.frame},
+              {"plane_normal", {contours.normal.x, contours.normal.y, contours.normal.z}},
+              {"structures", objects},
+              {"warnings", warnings_json(report)}};
+    if (contours.reference) {
+        const PlaneGrid& g = *contours.reference;
+        j["reference_grid"] = {
+            {"columns", g.columns}, {"rows", g.rows}, {"pixel_mm", {g.pixel_mm[0], g.pixel_mm[1]}}};
+    }
+    if (options.output.json) {
+        std::cout << j.dump(2) << '\n';
+        return 0;
+    }
+    if (options.output.quiet) {
+        return 0;
+    }
+    std::cout << "input:   " << contours.source << " (planar contours, frame " << contours.frame
+              << ")\n";
+    std::cout << "normal:  " << format_vec(contours.normal) << '\n';
+    if (contours.reference) {
+        std::cout << "grid:    " << contours.reference->columns << " x " << contours.reference->rows
+                  << ", " << contours.reference->pixel_mm[0] << " x "
+                  << contours.reference->pixel_mm[1] << " mm pixels (reference CT)\n";
+    }
+    std::cout << "structures: " << contours.objects.size() << '\n';
+    for (const Json& o : objects) {
+        char buf[256];
+        std::snprintf(
+            buf, sizeof(buf), "  %5d  %-28s  #%02x%02x%02x  %-10s %4zu planes  %5zu contours",
+            o["number"].get<int>(), o["name"].get<std::string>().c_str(),
+            o["color_srgb"][0].get<int>(), o["color_srgb"][1].get<int>(),
+            o["color_srgb"][2].get<int>(), o["interpreted_type"].get<std::string>().c_str(),
+            o["planes"].get<std::size_t>(), o["contours"].get<std::size_t>());
+        std::cout << buf;
+        if (o.contains("plane_range_mm")) {
+            std::snprintf(buf, sizeof(buf), "  %.2f..%.2f mm", o["plane_range_mm"][0].get<double>(),
+                          o["plane_range_mm"][1].get<double>());
+            std::cout << buf;
+        }
+        if (o["markers"].get<std::size_t>() > 0) {
+            std::cout << "  " << o["markers"].get<std::size_t>() << " markers";
+        }
+        std::cout << '\n';
+    }
+    print_warnings(std::cerr, report);
+    return 0;
+}
+
+}  // namespace
+
 int run_info(const InfoOptions& options) {
     if (is_gltf_path(options.input)) {
         return info_of_file(options);
+    }
+    if (is_planar_contour_file(options.input)) {
+        return info_of_contours(options);
     }
     Report report;
     ReadOptions read;

@@ -98,7 +98,9 @@ SliceStack read_slice_stack(const fs::path& path, const ReadOptions& options, Re
             if (ext == ".mgz" || ext == ".mgh") {
                 hint = " (FreeSurfer: convert with `mri_convert in.mgz out.nii.gz`)";
             } else if (ext == ".dcm") {
-                hint = " (DICOM is not read yet: export the segmentation as NIfTI or NRRD)";
+                hint =
+                    " (of DICOM, strata reads RTSTRUCT contours with `strata build`/`info`; "
+                    "export a DICOM SEG or image as NIfTI or NRRD)";
             }
             throw Error(ErrorCode::Unsupported,
                         path.string() + ": unknown input format" + hint +

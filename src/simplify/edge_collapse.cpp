@@ -194,11 +194,19 @@ public:
               const SliceErrorMeter& meter,
               const CollapseOptions& options)
         : positions_(*problem.positions),
+          exact_(problem.exact_positions != nullptr ? *problem.exact_positions
+                                                    : *problem.positions),
           pieces_(problem.pieces),
           meter_(meter),
           options_(options),
           cache_(options.error_floor_px, options.max_error_px),
           grid_(grid_cell(problem)) {
+        if (exact_.size() != positions_.size()) {
+            throw Error(ErrorCode::InvalidInput, "edge collapse: " + std::to_string(exact_.size()) +
+                                                     " exact positions for " +
+                                                     std::to_string(positions_.size()) +
+                                                     " vertices");
+        }
         // Local vertex ids: the piece's vertices in increasing global id.
         for (const Tri& t : problem.triangles) {
             for (const std::uint32_t g : t) {
@@ -237,7 +245,7 @@ public:
             for (const std::uint32_t v : lt) {
                 vertex_triangles_[v].push_back(id);
             }
-            grid_.insert(id, corners(id));
+            grid_.insert(id, exact_corners(id));
         }
         alive_count_ = triangles_.size();
         triangle_pieces_.resize(triangles_.size());
@@ -335,14 +343,17 @@ private:
     static constexpr std::uint32_t kObstacleBit = 0x80000000u;
 
     static double grid_cell(const CollapseProblem& problem) {
-        // About twice the mean edge length: a triangle covers a few cells.
+        // About twice the mean edge length (in the exact frame, where the grid lies): a triangle
+        // covers a few cells.
+        const std::vector<Vec3>& positions =
+            problem.exact_positions != nullptr ? *problem.exact_positions : *problem.positions;
         double sum = 0.0;
         std::size_t count = 0;
         for (const Tri& t : problem.triangles) {
             for (int i = 0; i < 3; ++i) {
                 const std::uint32_t a = t[i], b = t[(i + 1) % 3];
-                if (a < problem.positions->size() && b < problem.positions->size()) {
-                    sum += norm((*problem.positions)[a] - (*problem.positions)[b]);
+                if (a < positions.size() && b < positions.size()) {
+                    sum += norm(positions[a] - positions[b]);
                     ++count;
                 }
             }
@@ -360,9 +371,15 @@ private:
         const Tri& lt = triangles_[t];
         return {position(lt[0]), position(lt[1]), position(lt[2])};
     }
+    const Vec3& exact(std::uint32_t v) const { return exact_[global_[v]]; }
+    std::array<Vec3, 3> exact_corners(std::uint32_t t) const {
+        const Tri& lt = triangles_[t];
+        return {exact(lt[0]), exact(lt[1]), exact(lt[2])};
+    }
+    /// Obstacle i in the exact frame.
     std::array<Vec3, 3> obstacle_corners(std::uint32_t i) const {
         const Tri& g = obstacles_[i];
-        return {positions_[g[0]], positions_[g[1]], positions_[g[2]]};
+        return {exact_[g[0]], exact_[g[1]], exact_[g[2]]};
     }
 
     /// Every edge of the piece in at most two triangles, once in each direction.
@@ -416,14 +433,24 @@ private:
         return lt[0] == v || lt[1] == v || lt[2] == v;
     }
 
-    /// Triangle t with u replaced by v.
-    std::array<Vec3, 3> moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+    /// Triangle t with u replaced by v, with corners from `frame` (positions_ or exact_).
+    std::array<Vec3, 3> moved_in(const std::vector<Vec3>& frame,
+                                 std::uint32_t t,
+                                 std::uint32_t u,
+                                 std::uint32_t v) const {
         const Tri& lt = triangles_[t];
         std::array<Vec3, 3> c{};
         for (int i = 0; i < 3; ++i) {
-            c[i] = position(lt[i] == u ? v : lt[i]);
+            c[i] = frame[global_[lt[i] == u ? v : lt[i]]];
         }
         return c;
+    }
+    std::array<Vec3, 3> moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        return moved_in(positions_, t, u, v);
+    }
+    /// The same in the exact frame.
+    std::array<Vec3, 3> exact_moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        return moved_in(exact_, t, u, v);
     }
 
     /// Global ids of triangle t with u replaced by v.
@@ -535,6 +562,7 @@ private:
         if (moved_corners.empty()) {
             return std::nullopt;
         }
+
         for (std::size_t i = 0; i < star.size(); ++i) {
             if (own[i] == kNone) {
                 continue;
@@ -665,15 +693,18 @@ private:
         }
         for (std::size_t a = 0; a < changed.size(); ++a) {
             ++query_;  // each new triangle meets every neighbour once
-            const std::array<Vec3, 3> ta = moved(changed[a], u, v);
+            const std::array<Vec3, 3> ta = exact_moved(changed[a], u, v);
             const Tri ia = ids_after(changed[a]);
             const FilterPlane fa = filter_plane(ta);
+            if (!fa.proper && triangle_is_degenerate(ta)) {
+                return true;  // note: a zero-area triangle cannot be certified free either
+            }
             auto intersects = [&](const std::array<Vec3, 3>& tb, const Tri& ib) {
                 return !certainly_apart(ta, fa, ia, tb, ib) && triangles_intersect(ta, ia, tb, ib);
             };
             // the other new triangles
             for (std::size_t b = a + 1; b < changed.size(); ++b) {
-                if (intersects(moved(changed[b], u, v), ids_after(changed[b]))) {
+                if (intersects(exact_moved(changed[b], u, v), ids_after(changed[b]))) {
                     return true;
                 }
             }
@@ -698,7 +729,7 @@ private:
                     return;  // removed or replaced by this collapse
                 }
                 const Tri& lt = triangles_[index];
-                const std::array<Vec3, 3> tb = corners(index);
+                const std::array<Vec3, 3> tb = exact_corners(index);
                 hit = boxes_overlap(ta, tb) &&
                       intersects(tb, {global_[lt[0]], global_[lt[1]], global_[lt[2]]});
             });
@@ -742,7 +773,7 @@ private:
                 }
             }
             vertex_triangles_[v].push_back(t);
-            grid_.insert(t, after);
+            grid_.insert(t, exact_corners(t));
             moved_ids.push_back(t);
         }
         // Each piece stays on its triangle if that is no farther than before, else moves to the
@@ -779,6 +810,7 @@ private:
     }
 
     const std::vector<Vec3>& positions_;
+    const std::vector<Vec3>& exact_;  ///< positions for the predicates
     const std::vector<ContourPiece>* pieces_;
     const SliceErrorMeter& meter_;
     const CollapseOptions& options_;
@@ -812,6 +844,18 @@ private:
 };
 
 }  // namespace
+
+std::vector<Vec3> grid_frame_positions(const std::vector<Vec3>& positions,
+                                       double slice_spacing_px,
+                                       double grid_step) {
+    std::vector<Vec3> out = positions;
+    if (grid_step > 0.0) {
+        for (Vec3& p : out) {
+            p.z = std::nearbyint(p.z / slice_spacing_px / grid_step) * grid_step;
+        }
+    }
+    return out;
+}
 
 CollapseResult collapse_edges(const CollapseProblem& problem,
                               const SliceErrorMeter& meter,

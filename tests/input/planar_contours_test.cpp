@@ -322,3 +322,37 @@ TEST(PlanarContours, CliAnswersBadDicomWithExitTwo) {
 
 }  // namespace
 }  // namespace strata
+
+namespace strata {
+namespace {
+
+TEST(PlanarContours, CliInfoListsEveryStructure) {
+    const fs::path out = test::fresh_temp_dir("planar_info");
+    const std::string command = "'" + test::cli_path().string() + "' info '" + kRtstruct.string() +
+                                "' --json >'" + (out / "info.json").string() + "' 2>'" +
+                                (out / "err").string() + "'";
+    const int status = std::system(command.c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    ASSERT_EQ(WEXITSTATUS(status), 0) << test::read_file(out / "err");
+    const nlohmann::json info = nlohmann::json::parse(test::read_file(out / "info.json"));
+    // against the JSON export of the same structure set, read here without strata
+    const nlohmann::json json = nlohmann::json::parse(test::read_file(kJson));
+    ASSERT_EQ(info["structures"].size(), json["rois"].size());
+    for (std::size_t i = 0; i < json["rois"].size(); ++i) {
+        const nlohmann::json& roi = json["rois"][i];
+        const nlohmann::json& s = info["structures"][i];
+        EXPECT_EQ(s["number"], roi["number"]);
+        EXPECT_EQ(s["name"], roi["name"]);
+        EXPECT_EQ(s["color_srgb"], roi["color_rgb"]);
+        std::size_t contours = 0;
+        for (const nlohmann::json& slice : roi["slices"]) {
+            contours += slice["contours"].size();
+        }
+        EXPECT_EQ(s["contours"].get<std::size_t>(), contours) << roi["name"];
+        EXPECT_EQ(s["planes"].get<std::size_t>(), roi["slices"].size()) << roi["name"];
+    }
+    EXPECT_EQ(info["reference_grid"]["columns"], 512);
+}
+
+}  // namespace
+}  // namespace strata
