@@ -35,6 +35,7 @@ struct BuildOptions {
     /// px allowed) or this many levels ("3"); empty: not written.
     std::string lod_levels;
     std::string lod_compression = "draco";  ///< --lod-compression: draco or meshopt
+    bool scene_meshopt = false;  ///< --scene-meshopt: scene.glb with EXT_meshopt_compression
     /// Planar contour input (RTSTRUCT): a CT slice file or folder whose grid the contours'
     /// pixel grid is aligned with; empty: a CT beside the RTSTRUCT in its frame, if any.
     std::string reference_ct;

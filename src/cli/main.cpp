@@ -104,6 +104,9 @@ int main(int argc, char** argv) {
                      "(EXT_meshopt_compression)")
         ->check(CLI::IsMember({"draco", "meshopt"}))
         ->capture_default_str();
+    build_cmd->add_flag("--scene-meshopt", build.scene_meshopt,
+                        "Write OUTPUT/scene.glb with EXT_meshopt_compression (16-bit positions per "
+                        "object) for pipelines that prefer meshopt's decode speed");
     add_output_flags(*build_cmd, build.output);
 
     strata::cli::PhantomCommandOptions phantom;
