@@ -812,7 +812,9 @@ int run_build(const BuildOptions& options) {
         if (options.scene_meshopt) {
             detail::write_meshopt_scene(scene_file, scene, info);  // EXT_meshopt_compression
         } else {
-            write_scene_gltf(scene_file, scene, info);
+            SceneGltfOptions scene_options;
+            scene_options.draco = !options.scene_uncompressed;
+            write_scene_gltf(scene_file, scene, info, scene_options);
         }
     }
 

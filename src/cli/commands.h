@@ -40,6 +40,8 @@ struct BuildOptions {
     /// pixel grid is aligned with; empty: a CT beside the RTSTRUCT in its frame, if any.
     std::string reference_ct;
     double contour_pitch_mm = 0.0;  ///< planar contour input: pixel pitch, mm; 0: automatic
+    /// OUTPUT/scene.glb with plain float accessors instead of Draco (--scene-uncompressed).
+    bool scene_uncompressed = false;
     OutputOptions output;
 };
 

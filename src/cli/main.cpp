@@ -90,6 +90,9 @@ int main(int argc, char** argv) {
                      "plus a buffer file per level, for streaming)")
         ->check(CLI::IsMember({"glb", "gltf"}))
         ->capture_default_str();
+    build_cmd->add_flag("--scene-uncompressed", build.scene_uncompressed,
+                        "Write OUTPUT/scene.glb without Draco compression (plain float "
+                        "accessors, for viewers without a Draco decoder)");
     build_cmd
         ->add_option("--cluster-triangles", build.cluster_triangles,
                      "Target triangles per cluster of the multiresolution model")
