@@ -933,6 +933,60 @@ bool LabelSurface::resolve_corner(
     return true;
 }
 
+/// Which points of a medial curve become Steiner points: those of its Douglas-Peucker
+/// simplification (options.medial_tolerance_px), plus one at least every medial_max_step_px of
+/// arc length, none closer than medial_step_px of arc length to the previous kept one.
+std::vector<bool> thin_medial_curve(const MedialCurve& curve, const TriangulateOptions& options) {
+    const std::size_t n = curve.points.size();
+    std::vector<bool> corner(n, options.medial_tolerance_px <= 0.0);
+    if (n > 0) {
+        corner[0] = true;
+        corner[n - 1] = true;
+    }
+    std::vector<std::pair<std::size_t, std::size_t>> stack;
+    if (n > 2 && options.medial_tolerance_px > 0.0) {
+        stack.emplace_back(0, n - 1);
+    }
+    while (!stack.empty()) {
+        const auto [a, b] = stack.back();
+        stack.pop_back();
+        const Vec2 pa = curve.points[a].position;
+        const Vec2 dir = curve.points[b].position - pa;
+        const double length = norm(dir);
+        double worst = -1.0;
+        std::size_t at = a;
+        for (std::size_t i = a + 1; i < b; ++i) {
+            const Vec2 q = curve.points[i].position - pa;
+            const double d = length > 0.0 ? std::abs(cross(dir, q)) / length : norm(q);
+            if (d > worst) {
+                worst = d;
+                at = i;
+            }
+        }
+        if (worst > options.medial_tolerance_px) {
+            corner[at] = true;
+            if (at - a > 1) {
+                stack.emplace_back(a, at);
+            }
+            if (b - at > 1) {
+                stack.emplace_back(at, b);
+            }
+        }
+    }
+    std::vector<bool> keep(n, false);
+    double since = options.medial_step_px;  // arc length since the last kept point
+    for (std::size_t i = 0; i < n; ++i) {
+        if (i > 0) {
+            since += norm(curve.points[i].position - curve.points[i - 1].position);
+        }
+        if (since >= options.medial_step_px && (corner[i] || since >= options.medial_max_step_px)) {
+            keep[i] = true;
+            since = 0.0;
+        }
+    }
+    return keep;
+}
+
 void LabelSurface::triangulate_slab(std::uint32_t k) {
     Cdt cdt;
     std::map<EdgeKey, EdgeOwner> owners;
@@ -957,16 +1011,11 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
             if (curve.label != label_) {
                 continue;
             }
-            double run = options_.medial_step_px;
+            const std::vector<bool> keep = thin_medial_curve(curve, options_);
             for (std::size_t i = 0; i < curve.points.size(); ++i) {
-                if (i > 0) {
-                    const Vec2 d = curve.points[i].position - curve.points[i - 1].position;
-                    run += std::sqrt(dot(d, d));
-                }
-                if (run < options_.medial_step_px) {
+                if (!keep[i]) {
                     continue;
                 }
-                run = 0.0;
                 const Point p = to_point(curve.points[i].position);
                 Cdt::Locate_type type;
                 int li = 0;
