@@ -9,6 +9,8 @@
 #                   positions, lossless)
 #   gltfpack -cc    npm gltfpack (scripts/node-bench, as bench-size.sh) on the plain scene.glb:
 #                   meshopt with filters, 14-bit positions (lossy)
+#   scene.glb       strata's single-rate scene as `strata build` writes it by default, and with
+#                   --scene-meshopt (EXT_meshopt_compression, 16-bit positions per object, lossy)
 #   lods Draco      lods.glb with --lod-levels LEVELS (default 0.5mm,2mm,8mm)
 #   lods meshopt    the same with --lod-compression meshopt
 # and prints bytes, gzip -9 bytes (meshopt data is meant to be served compressed), the triangles
@@ -86,13 +88,15 @@ for c in "${cases[@]}"; do
         --lod-compression meshopt --quiet
     "$strata" build "${input[@]}" -o "$dir/single_draco" --lod-levels 1 --quiet
     "$strata" build "${input[@]}" -o "$dir/single_meshopt" --lod-levels 1 \
-        --lod-compression meshopt --quiet
+        --lod-compression meshopt --scene-meshopt --quiet
     "$gltfpack" -i "$dir/draco/scene.glb" -o "$dir/gltfpack_cc.glb" -cc >/dev/null 2>&1 ||
         echo "bench-lods: gltfpack failed on $dir/draco/scene.glb" >&2
     rows=("progressive model.glb|$dir/draco/model.glb"
           "single Draco|$dir/single_draco/lods.glb"
           "single meshopt|$dir/single_meshopt/lods.glb"
           "gltfpack -cc|$dir/gltfpack_cc.glb"
+          "scene.glb (default)|$dir/draco/scene.glb"
+          "scene.glb meshopt|$dir/single_meshopt/scene.glb"
           "lods.glb Draco|$dir/draco/lods.glb"
           "lods.glb meshopt|$dir/meshopt/lods.glb")
     files=()

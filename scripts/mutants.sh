@@ -111,7 +111,7 @@ mutant distance-saddle-outside src/distance/distance_field.cpp \
 mutant triangulate-height-unclamped src/triangulate/surface.cpp \
     'return std::clamp(t, 0.05, 0.95);' \
     'return std::clamp(t, 0.0, 1.0);' \
-    'triangulate_test' '^Catalogue/CatalogueSurface.*/(t01_sphere|t13_y_branch_1to2|t27_thin_features)$'
+    'triangulate_test' '^Catalogue/CatalogueSurface.*/(t01_sphere|t13_y_branch_1to2|t27_thin_features)( |$)'
 mutant verify-self-intersection-skipped src/pipeline/reconstruct.cpp \
     'v.self_intersection_free = v.closed_manifold && !has_self_intersections(surface.mesh);' \
     'v.self_intersection_free = v.closed_manifold;' \

@@ -18,6 +18,7 @@
 #include "core/report.h"
 #include "debug/draw_contours.h"
 #include "debug/draw_medial.h"
+#include "exporters/detail/meshopt_scene.h"
 #include "exporters/lod_gltf.h"
 #include "exporters/progressive_gltf.h"
 #include "exporters/read_progressive_gltf.h"
@@ -808,7 +809,13 @@ int run_build(const BuildOptions& options) {
         const Vec3 spacing = stack.spacing_mm();
         info.spacing_mm = {spacing.x, spacing.y, spacing.z};
         info.generator = "strata 0.1.0";
-        write_scene_gltf(scene_file, scene, info);
+        if (options.scene_meshopt) {
+            detail::write_meshopt_scene(scene_file, scene, info);  // EXT_meshopt_compression
+        } else {
+            SceneGltfOptions scene_options;
+            scene_options.draco = !options.scene_uncompressed;
+            write_scene_gltf(scene_file, scene, info, scene_options);
+        }
     }
 
     Json summary;

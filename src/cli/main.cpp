@@ -90,6 +90,9 @@ int main(int argc, char** argv) {
                      "plus a buffer file per level, for streaming)")
         ->check(CLI::IsMember({"glb", "gltf"}))
         ->capture_default_str();
+    build_cmd->add_flag("--scene-uncompressed", build.scene_uncompressed,
+                        "Write OUTPUT/scene.glb without Draco compression (plain float "
+                        "accessors, for viewers without a Draco decoder)");
     build_cmd
         ->add_option("--cluster-triangles", build.cluster_triangles,
                      "Target triangles per cluster of the multiresolution model")
@@ -104,6 +107,9 @@ int main(int argc, char** argv) {
                      "(EXT_meshopt_compression)")
         ->check(CLI::IsMember({"draco", "meshopt"}))
         ->capture_default_str();
+    build_cmd->add_flag("--scene-meshopt", build.scene_meshopt,
+                        "Write OUTPUT/scene.glb with EXT_meshopt_compression (16-bit positions per "
+                        "object) for pipelines that prefer meshopt's decode speed");
     add_output_flags(*build_cmd, build.output);
 
     strata::cli::PhantomCommandOptions phantom;

@@ -1,3 +1,4 @@
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -64,9 +65,14 @@ RawContourSet read_contour_json(const std::string& path) {
             fail(path, at + ": expected an object");
         }
         RawRoi out;
-        out.number = roi.contains("number")
-                         ? std::int32_t(number(roi["number"], path, at + ".number"))
-                         : std::int32_t(r + 1);
+        out.number = std::int32_t(r + 1);
+        if (roi.contains("number")) {
+            const double n = number(roi["number"], path, at + ".number");
+            if (!(n >= -2147483648.0 && n <= 2147483647.0) || n != std::floor(n)) {
+                fail(path, at + ".number: expected an integer (a 32-bit ROI Number)");
+            }
+            out.number = std::int32_t(n);
+        }
         if (roi.contains("name")) {
             if (!roi["name"].is_string()) {
                 fail(path, at + ".name: expected a string");

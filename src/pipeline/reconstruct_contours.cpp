@@ -131,6 +131,13 @@ ContourFrame contour_frame(const PlanarContours& contours,
             }
         }
     }
+    if (!(pitch > 0.0) || !std::isfinite(pitch) ||
+        std::max(all.hi_u - all.lo_u, all.hi_v - all.lo_v) / pitch > 1e9) {
+        throw Error(ErrorCode::InvalidInput, contours.source + ": a pixel pitch of " + text(pitch) +
+                                                 " mm is too fine for contours spanning " +
+                                                 text(largest) +
+                                                 " mm; expected at most 1e9 pixels across");
+    }
     frame.pitch_mm = pitch;
     frame.slice_spacing_px = gap / pitch;
     frame.first_w = distinct.empty() ? 0.0 : distinct.front();

@@ -453,6 +453,15 @@ private:
         return moved_in(exact_, t, u, v);
     }
 
+    /// Local ids of triangle t with u replaced by v.
+    Tri local_moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        Tri ids = triangles_[t];
+        for (std::uint32_t& w : ids) {
+            w = w == u ? v : w;
+        }
+        return ids;
+    }
+
     /// Global ids of triangle t with u replaced by v.
     Tri ids_moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
         const Tri& lt = triangles_[t];
@@ -528,6 +537,56 @@ private:
         return true;
     }
 
+    /// Number of folds (edges whose two triangles turn by more than 90 degrees: normals pointing
+    /// apart) among the edges of u's star, before collapsing u onto v or after (the edges of the
+    /// changed triangles). Edges with a triangle outside the piece are not counted.
+    std::size_t folds(std::uint32_t u, std::uint32_t v, bool after) const {
+        std::vector<std::pair<std::uint32_t, std::uint32_t>>& edges = fold_edges_;
+        edges.clear();
+        auto ids_of = [&](std::uint32_t t) { return after ? local_moved(t, u, v) : triangles_[t]; };
+        for (const std::uint32_t t : vertex_triangles_[u]) {
+            if (after && contains(t, v)) {
+                continue;  // removed by the collapse
+            }
+            const Tri ids = ids_of(t);
+            for (int i = 0; i < 3; ++i) {
+                edges.emplace_back(std::min(ids[i], ids[(i + 1) % 3]),
+                                   std::max(ids[i], ids[(i + 1) % 3]));
+            }
+        }
+        std::sort(edges.begin(), edges.end());
+        edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+        std::size_t count = 0;
+        for (const auto& [a, b] : edges) {
+            std::array<Vec3, 2> normal{};
+            int found = 0;
+            auto visit = [&](std::uint32_t t) {
+                if (after && contains(t, u) && contains(t, v)) {
+                    return;
+                }
+                const Tri ids = ids_of(t);
+                const bool has_b = ids[0] == b || ids[1] == b || ids[2] == b;
+                const bool has_a = ids[0] == a || ids[1] == a || ids[2] == a;
+                if (has_a && has_b && found < 2) {
+                    const std::array<Vec3, 3> c = after ? moved(t, u, v) : corners(t);
+                    normal[std::size_t(found++)] = normal_of(c[0], c[1], c[2]);
+                }
+            };
+            for (const std::uint32_t t : vertex_triangles_[a]) {
+                visit(t);
+            }
+            if (after && a == v) {
+                for (const std::uint32_t t : vertex_triangles_[u]) {
+                    visit(t);
+                }
+            }
+            if (found == 2 && dot(normal[0], normal[1]) < 0.0) {
+                ++count;
+            }
+        }
+        return count;
+    }
+
     /// Cost of collapsing u onto v (max error bound of the changed triangles, with the distances
     /// of the contour pieces they take when `pieces`), or nothing when the collapse folds or
     /// degenerates a triangle.
@@ -560,6 +619,11 @@ private:
             moved_corners.push_back(after);
         }
         if (moved_corners.empty()) {
+            return std::nullopt;
+        }
+        // A fold looks like what it is whatever the slice sections say: a collapse may not add
+        // one.
+        if (folds(u, v, true) > folds(u, v, false)) {
             return std::nullopt;
         }
 
@@ -830,6 +894,7 @@ private:
     std::vector<std::vector<Attached>> triangle_pieces_;
     mutable std::vector<std::array<Vec3, 3>> moved_corners_;  ///< scratch of cost()
     mutable std::vector<std::uint32_t> moved_index_;          ///< scratch of cost()
+    mutable std::vector<std::pair<std::uint32_t, std::uint32_t>> fold_edges_;  ///< of folds()
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     /// Candidates whose cost is read: more than the floor each.

@@ -84,11 +84,14 @@ struct CollapseResult {
 /// Preserved: the locked vertices and every edge between two of them (so the piece still fits
 /// any neighbour that kept the same boundary), manifoldness and orientation (link condition,
 /// no vertex left with fewer than 3 edges), topology (genus, components), no triangle turned by
-/// more than allowed, no degenerate (collinear) triangle, and embedding: no new triangle
-/// intersects a triangle of the piece or an obstacle (exact predicates, on `exact_positions`). Not
-/// preserved: volume, normals, vertex count. Deterministic: ties are broken by vertex ids. \throw
-/// Error{InvalidInput} when a triangle refers to a vertex outside `positions` or an edge is
-///        used by more than two triangles of the piece.
+/// more than allowed, no fold added (an edge whose triangles' normals point apart, a crease over
+/// 90 degrees: the slice sections do not see it, a viewer does; a collapse may keep or remove
+/// folds, never add one), no degenerate (collinear) triangle, and embedding: no new triangle
+/// intersects a triangle of the piece or an obstacle (exact predicates, on `exact_positions`).
+/// Not preserved: volume, normals, vertex count.
+/// Deterministic: ties are broken by vertex ids.
+/// \throw Error{InvalidInput} when a triangle refers to a vertex outside `positions` or an edge
+///        is used by more than two triangles of the piece.
 CollapseResult collapse_edges(const CollapseProblem& problem,
                               const SliceErrorMeter& meter,
                               const CollapseOptions& options);

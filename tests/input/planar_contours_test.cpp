@@ -302,6 +302,9 @@ TEST(PlanarContours, BadContourJsonIsRefusedWithItsPath) {
         error_of(write("b.json", head + R"({"color_rgb": [1, 2]}]})"), ErrorCode::InvalidInput)
             .find("color_rgb"),
         std::string::npos);
+    EXPECT_NE(error_of(write("d.json", head + R"({"number": 1e20}]})"), ErrorCode::InvalidInput)
+                  .find("rois[0].number"),
+              std::string::npos);
     EXPECT_NE(
         error_of(write("c.json", head + "{]"), ErrorCode::InvalidInput).find("not valid JSON"),
         std::string::npos);
@@ -318,6 +321,15 @@ TEST(PlanarContours, CliAnswersBadDicomWithExitTwo) {
     const std::string err = test::read_file(out / "err");
     EXPECT_EQ(err.rfind("strata: error: ", 0), 0u) << err;
     EXPECT_NE(err.find("not an RTSTRUCT"), std::string::npos) << err;
+
+    // a pitch far too fine for the structures' extent
+    const std::string fine = "'" + test::cli_path().string() + "' build '" + kJson.string() +
+                             "' --contour-pitch 1e-9 -o '" + out.string() + "' --quiet 2>'" +
+                             (out / "err2").string() + "'";
+    const int fine_status = std::system(fine.c_str());
+    ASSERT_TRUE(WIFEXITED(fine_status));
+    EXPECT_EQ(WEXITSTATUS(fine_status), 2) << test::read_file(out / "err2");
+    EXPECT_NE(test::read_file(out / "err2").find("too fine"), std::string::npos);
 }
 
 }  // namespace

@@ -8,7 +8,8 @@
 // components and genera of the full-resolution surface, without self-intersections or
 // degenerate triangles (exact check: find_self_intersections); and the same clusters of the
 // in-memory model must lie within the declared bound by the independent oracle
-// (test::measure_cut_error). The small inputs here; the torso, TotalSegmentator and a sample of
+// (test::measure_cut_error). And no group adds a fold (an edge over 90 degrees) to the part of
+// the surface it simplifies. The small inputs here; the torso, TotalSegmentator and a sample of
 // the FreeSurfer labels in large_data_cuts_test (`slow`).
 #include <algorithm>
 #include <chrono>
@@ -47,6 +48,46 @@ TriMesh as_float32(TriMesh mesh) {
         }
     }
     return mesh;
+}
+
+/// Folds among the edges shared by two triangles of `clusters` of `m` (slice space): edges whose
+/// triangles' normals n, m have n . m < slack |n| |m| (slack 0: turning by more than 90 degrees).
+std::size_t interior_folds(const MultiresMesh& m,
+                           const std::vector<std::uint32_t>& clusters,
+                           double slack) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<Vec3>> normals;
+    for (const std::uint32_t c : clusters) {
+        const MultiresCluster& cluster = m.clusters[c];
+        for (const auto& t : cluster.triangles) {
+            const std::array<std::uint32_t, 3> ids{cluster.vertices[t[0]], cluster.vertices[t[1]],
+                                                   cluster.vertices[t[2]]};
+            const Vec3 n = cross(m.positions[ids[1]] - m.positions[ids[0]],
+                                 m.positions[ids[2]] - m.positions[ids[0]]);
+            for (int i = 0; i < 3; ++i) {
+                normals[{std::min(ids[i], ids[(i + 1) % 3]), std::max(ids[i], ids[(i + 1) % 3])}]
+                    .push_back(n);
+            }
+        }
+    }
+    std::size_t folds = 0;
+    for (const auto& [edge, n] : normals) {
+        if (n.size() == 2 && dot(n[0], n[1]) < slack * norm(n[0]) * norm(n[1])) {
+            ++folds;
+        }
+    }
+    return folds;
+}
+
+/// Expects no group of `m` to have more folds (over 90 degrees) among the edges inside it after
+/// its simplification than before (collapses may keep or remove folds, never add one).
+void expect_no_fold_added(const MultiresMesh& m) {
+    for (std::size_t g = 0; g < m.groups.size(); ++g) {
+        const MultiresGroup& group = m.groups[g];
+        // note: a hair of slack either way, so rounding of nearly right angles cannot decide
+        const std::size_t before = interior_folds(m, group.consumed, 1e-9);
+        const std::size_t after = interior_folds(m, group.produced, -1e-9);
+        EXPECT_LE(after, before) << "group " << g << " (level " << group.level << ")";
+    }
 }
 
 /// The sphere around every cluster sphere of the file's model (scene metres).
@@ -110,6 +151,7 @@ void check_stack(const SliceStack& stack, const std::string& name, int random_cu
             ASSERT_EQ(read.clusters[c].triangles.size(), model.clusters[c].triangles.size());
         }
         const std::vector<int> genera = test::sorted_genera(check_mesh(r.surfaces[i].mesh));
+        expect_no_fold_added(model);
         std::vector<std::pair<std::string, MultiresCut>> cuts;
         for (const double mm : {0.25, 0.5, 1.0, 2.0, 4.0}) {
             cuts.emplace_back("extract " + std::to_string(mm) + " mm",
@@ -209,6 +251,23 @@ TEST(SharedDataCuts, PyradiomicsBrainTumor) {
 
 TEST(SharedDataCuts, TerrainVolcano) {
     run("terrain_volcano", read_stack(test::shared_data_dir() / "terrain_volcano"), 6);
+}
+
+// Folds on small models too: clusters of 256 triangles make many groups per surface.
+TEST(SharedDataCuts, NoGroupAddsAFoldWithSmallClusters) {
+    for (const char* input : {"pyradiomics_lung_tumor/lung2_label.nrrd", "terrain_volcano",
+                              "pyradiomics_brain_tumor/brain1_label.nrrd"}) {
+        SCOPED_TRACE(input);
+        Report report;
+        ReconstructOptions options;
+        options.multires.cluster_triangles = 256;
+        const Reconstruction r =
+            reconstruct(read_stack(test::shared_data_dir() / input), options, report);
+        for (const MultiresMesh& m : r.models) {
+            EXPECT_GT(m.groups.size(), 4u);
+            expect_no_fold_added(m);
+        }
+    }
 }
 
 #ifdef STRATA_LARGE_DATA
