@@ -661,8 +661,37 @@ test("the plugin's normals over the full-resolution cut are the C++ shading norm
             P = read(primitive.attributes.POSITION);
             N = read(primitive.attributes.NORMAL);
         }
+        // Draco-compressed positions are quantized: match each scene vertex to the nearest model
+        // vertex (within 0.01 mm; distinct vertices are far further apart)
+        const cell = (v) => Math.floor(v / 0.05);
+        const grid = new Map();
+        for (let id = 0; id < positions.length / 3; ++id) {
+            const key = [0, 1, 2].map((k) => cell(positions[3 * id + k])).join(',');
+            if (!grid.has(key)) grid.set(key, []);
+            grid.get(key).push(id);
+        }
+        const nearest = (x, y, z) => {
+            let best;
+            let bestD = 0.01;
+            for (let dx = -1; dx <= 1; ++dx)
+                for (let dy = -1; dy <= 1; ++dy)
+                    for (let dz = -1; dz <= 1; ++dz) {
+                        for (const id of grid.get(`${cell(x) + dx},${cell(y) + dy},${cell(z) + dz}`) ?? []) {
+                            const d = Math.hypot(
+                                positions[3 * id] - x,
+                                positions[3 * id + 1] - y,
+                                positions[3 * id + 2] - z,
+                            );
+                            if (d < bestD) {
+                                bestD = d;
+                                best = id;
+                            }
+                        }
+                    }
+            return best;
+        };
         for (let i = 0; i < P.length / 3; ++i) {
-            const id = ids.get([P[3 * i], P[3 * i + 1], P[3 * i + 2]].map((v) => Math.round(v * 1024)).join(','));
+            const id = nearest(P[3 * i], P[3 * i + 1], P[3 * i + 2]);
             assert.ok(id !== undefined, `${object.name}: scene.glb vertex ${i} is not a vertex of the level-0 cut`);
             const length = Math.hypot(N[3 * i], N[3 * i + 1], N[3 * i + 2]);
             const dot =
