@@ -26,6 +26,7 @@
 #include "core/file_names.h"
 #include "exporters/detail/draco_chunk.h"
 #include "exporters/detail/glb_container.h"
+#include "exporters/detail/gltf_assembly.h"
 #include "exporters/detail/gltf_common.h"
 #include "exporters/detail/meshopt_streams.h"
 
@@ -37,11 +38,8 @@ using Json = nlohmann::ordered_json;
 using detail::to_float;
 
 constexpr int kFloat = 5126;
-constexpr int kByte = 5120;
 constexpr int kUnsignedShort = 5123;
 constexpr int kUnsignedInt = 5125;
-constexpr int kArrayBuffer = 34962;
-constexpr int kElementArrayBuffer = 34963;
 constexpr double kRoughness = 0.6;
 constexpr std::size_t kMaxShortVertices = 65535;  // index 65535 is the primitive restart value
 constexpr const char* kDraco = "KHR_draco_mesh_compression";
@@ -352,54 +350,6 @@ void encode_meshopt(const std::filesystem::path& path,
     }
 }
 
-/// The JSON and binary data being assembled: buffer 0 is the GLB's BIN chunk; with meshopt,
-/// buffer 1 is the decoded data's (fallback) buffer, which has no bytes.
-class Assembly {
-public:
-    Json json;
-    std::string bin;
-    std::size_t fallback_bytes = 0;
-
-    int add_view(const std::string& bytes) {
-        Json view = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes.size()}};
-        append(bytes);
-        json["bufferViews"].push_back(view);
-        return static_cast<int>(json["bufferViews"].size() - 1);
-    }
-
-    /// A view of the decoded data whose bytes are the meshopt stream `s` in buffer 0.
-    int add_meshopt_view(const detail::MeshoptStream& s, bool indices) {
-        const std::size_t length = std::size_t(s.count) * s.byte_stride;
-        Json compressed = {{"buffer", 0},
-                           {"byteOffset", bin.size()},
-                           {"byteLength", s.bytes.size()},
-                           {"byteStride", s.byte_stride},
-                           {"mode", indices ? "TRIANGLES" : "ATTRIBUTES"},
-                           {"count", s.count}};
-        append(s.bytes);
-        Json view = {{"buffer", 1}, {"byteOffset", fallback_bytes}, {"byteLength", length}};
-        if (!indices) {
-            view["byteStride"] = s.byte_stride;
-        }
-        view["target"] = indices ? kElementArrayBuffer : kArrayBuffer;
-        view["extensions"][kMeshopt] = compressed;
-        fallback_bytes += (length + 3) / 4 * 4;
-        json["bufferViews"].push_back(view);
-        return static_cast<int>(json["bufferViews"].size() - 1);
-    }
-
-    int add_accessor(Json accessor) {
-        json["accessors"].push_back(std::move(accessor));
-        return static_cast<int>(json["accessors"].size() - 1);
-    }
-
-private:
-    void append(const std::string& bytes) {
-        bin += bytes;
-        bin.resize((bin.size() + 3) / 4 * 4, '\0');
-    }
-};
-
 Json json_array(const auto& values) {
     Json a = Json::array();
     for (const auto v : values) {
@@ -409,7 +359,7 @@ Json json_array(const auto& values) {
 }
 
 /// The mesh of one level: one primitive, its accessors and views.
-Json level_primitive(Assembly& a, const EncodedLevel& level, bool draco, int material) {
+Json level_primitive(detail::GltfAssembly& a, const EncodedLevel& level, bool draco, int material) {
     Json primitive;
     if (draco) {
         const int view = a.add_view(level.draco);
@@ -429,33 +379,10 @@ Json level_primitive(Assembly& a, const EncodedLevel& level, bool draco, int mat
         primitive["extensions"][kDraco] = {
             {"bufferView", view},
             {"attributes", {{"POSITION", level.position_id}, {"NORMAL", level.normal_id}}}};
-    } else {
-        const detail::MeshoptMesh& m = level.meshopt;
-        const int pv = a.add_meshopt_view(m.positions, false);
-        const int nv = a.add_meshopt_view(m.normals, false);
-        const int iv = a.add_meshopt_view(m.indices, true);
-        const int position =
-            a.add_accessor({{"bufferView", pv},
-                            {"componentType", m.float_positions ? kFloat : kUnsignedShort},
-                            {"count", m.positions.count},
-                            {"type", "VEC3"},
-                            {"min", json_array(m.min)},
-                            {"max", json_array(m.max)}});
-        const int normal = a.add_accessor({{"bufferView", nv},
-                                           {"componentType", kByte},
-                                           {"normalized", true},
-                                           {"count", m.normals.count},
-                                           {"type", "VEC3"}});
-        const int indices = a.add_accessor(
-            {{"bufferView", iv},
-             {"componentType", m.indices.byte_stride == 2 ? kUnsignedShort : kUnsignedInt},
-             {"count", m.indices.count},
-             {"type", "SCALAR"}});
-        primitive["attributes"] = {{"POSITION", position}, {"NORMAL", normal}};
-        primitive["indices"] = indices;
+        primitive["material"] = material;
+        return primitive;
     }
-    primitive["material"] = material;
-    return primitive;
+    return a.add_meshopt_primitive(level.meshopt, material);
 }
 
 /// The smallest 7-significant-digit decimal (as parsed back) >= x.
@@ -596,7 +523,7 @@ LodStats write_lod_gltf(const std::filesystem::path& path,
         }
     }
 
-    Assembly a;
+    detail::GltfAssembly a;
     Json& json = a.json;
     json["asset"] = {{"version", "2.0"}, {"generator", info.generator}};
     json["extensionsUsed"] = Json::array();
@@ -741,11 +668,7 @@ LodStats write_lod_gltf(const std::filesystem::path& path,
             json["nodes"].push_back(node);
         }
     }
-    json["buffers"] = Json::array({{{"byteLength", a.bin.size()}}});
-    if (!draco) {
-        json["buffers"].push_back(
-            {{"byteLength", a.fallback_bytes}, {"extensions", {{kMeshopt, {{"fallback", true}}}}}});
-    }
+    a.finish_buffers();
     const std::string bytes = detail::glb_container(path, json.dump(), a.bin);
     write_file_atomically(path, bytes);
     stats.total_bytes = bytes.size();

@@ -75,13 +75,16 @@ std::vector<MultiresCut> lod_cuts(const MultiresMesh& model,
 /// `extras.MSFT_screencoverage`: per level the least screen coverage (projected area of the
 /// object's bounding sphere over the viewport area, as Babylon.js measures it) at which the next
 /// coarser level would project its error above `screen_error_px`, and 0 for the coarsest (never
-/// culled). Every level node's matrix maps its stored positions to LPS mm, and its extras give
-/// "error_mm" (the level's bound), "triangles" and "lod". Meshes carry POSITION and NORMAL (area
-/// weighted, of that level) and one material per object. The buffer holds the levels
-/// coarse-first (every object's coarsest, then the next finer, ...), so a loader reading the
-/// file from its start (Babylon.js's MSFT_lod with range requests) gets the coarse levels early.
-/// Draco primitives store positions on the model's grid losslessly and are decoded again and
-/// compared with their cut before anything is written.
+/// culled). The sphere is the finest level's patient-frame box's half diagonal (extras
+/// "bounding_radius_mm"): an engine with a larger sphere switches later, i.e. finer, never too
+/// early (Babylon.js takes the node's local box times its largest axis scale, larger on
+/// anisotropic voxel grids: 1.8x on the phantom's 1 x 1 x 2 mm). Every level node's matrix maps its
+/// stored positions to LPS mm, and its extras give "error_mm" (the level's bound), "triangles" and
+/// "lod". Meshes carry POSITION and NORMAL (area weighted, of that level) and one material per
+/// object. The buffer holds the levels coarse-first (every object's coarsest, then the next finer,
+/// ...), so a loader reading the file from its start (Babylon.js's MSFT_lod with range requests)
+/// gets the coarse levels early. Draco primitives store positions on the model's grid losslessly
+/// and are decoded again and compared with their cut before anything is written.
 ///
 /// Atomic (temporary file, then rename). \throw Error{Unsupported} for an extension other than
 /// .glb, or over 4 GiB; Error{InvalidInput} for empty scenes, models without a grid, bad colours,

@@ -17,6 +17,9 @@
 #include <string_view>
 #include <system_error>
 
+#include <draco/compression/decode.h>
+#include <draco/compression/encode.h>
+#include <draco/mesh/mesh.h>
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
@@ -36,6 +39,7 @@ using detail::to_float;
 using detail::uri_encode;
 
 constexpr double kRoughness = 0.6;
+constexpr const char* kDraco = "KHR_draco_mesh_compression";
 constexpr std::size_t kMaxShortVertices = 65535;  // index 65535 is the primitive restart value
 constexpr std::size_t kMaxIntVertices = std::numeric_limits<std::uint32_t>::max();
 
@@ -155,11 +159,93 @@ std::vector<Index> flat_indices(const TriMesh& mesh) {
     return out;
 }
 
+/// One object's triangles, positions and normals as a Draco (Edgebreaker) primitive: its bytes
+/// in a buffer view, accessors without views for POSITION, NORMAL and the indices (counts and
+/// bounds of the decoded mesh, which is decoded here once to read them).
+void add_draco_primitive(tinygltf::Model& model,
+                         BufferBuilder& buffer,
+                         tinygltf::Primitive& primitive,
+                         const std::filesystem::path& path,
+                         const std::vector<float>& positions,
+                         const std::vector<float>& normals,
+                         const TriMesh& mesh,
+                         const SceneGltfOptions& options) {
+    const auto n = static_cast<std::uint32_t>(mesh.positions.size());
+    draco::Mesh dm;
+    dm.set_num_points(n);
+    const auto add = [&](draco::GeometryAttribute::Type type, const std::vector<float>& values) {
+        draco::GeometryAttribute attribute;
+        attribute.Init(type, nullptr, 3, draco::DT_FLOAT32, false, sizeof(float) * 3, 0);
+        const int id = dm.AddAttribute(attribute, true, n);
+        for (std::uint32_t i = 0; i < n; ++i) {
+            dm.attribute(id)->SetAttributeValue(draco::AttributeValueIndex(i), &values[3 * i]);
+        }
+        return id;
+    };
+    const int position = add(draco::GeometryAttribute::POSITION, positions);
+    const int normal = add(draco::GeometryAttribute::NORMAL, normals);
+    for (const auto& t : mesh.triangles) {
+        dm.AddFace({draco::PointIndex(t[0]), draco::PointIndex(t[1]), draco::PointIndex(t[2])});
+    }
+    draco::Encoder encoder;
+    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
+    encoder.SetSpeedOptions(options.draco_speed, options.draco_speed);
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, options.position_bits);
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::NORMAL, options.normal_bits);
+    draco::EncoderBuffer encoded;
+    const draco::Status status = encoder.EncodeMeshToBuffer(dm, &encoded);
+    if (!status.ok()) {
+        fail(ErrorCode::Internal, path, "Draco encoding failed: " + status.error_msg_string());
+    }
+    draco::DecoderBuffer in;
+    in.Init(encoded.data(), encoded.size());
+    draco::Decoder decoder;
+    auto decoded = decoder.DecodeMeshFromBuffer(&in);
+    if (!decoded.ok() || decoded.value()->num_faces() != mesh.triangles.size()) {
+        fail(ErrorCode::Internal, path, "the Draco primitive does not decode to its triangles");
+    }
+    const draco::Mesh& back = *decoded.value();
+    const draco::PointAttribute* back_position =
+        back.GetNamedAttribute(draco::GeometryAttribute::POSITION);
+    std::vector<double> min(3, std::numeric_limits<double>::infinity());
+    std::vector<double> max(3, -std::numeric_limits<double>::infinity());
+    for (draco::PointIndex i(0); i < back.num_points(); ++i) {
+        float p[3] = {};
+        back_position->GetMappedValue(i, p);
+        for (int k = 0; k < 3; ++k) {
+            min[k] = std::min(min[k], static_cast<double>(p[k]));
+            max[k] = std::max(max[k], static_cast<double>(p[k]));
+        }
+    }
+    const int view = buffer.add_view(encoded.data(), encoded.size(), /*target=*/0);
+    const int position_accessor = buffer.add_accessor(-1, TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                                      TINYGLTF_TYPE_VEC3, back.num_points());
+    model.accessors[position_accessor].minValues = min;
+    model.accessors[position_accessor].maxValues = max;
+    primitive.attributes["POSITION"] = position_accessor;
+    primitive.attributes["NORMAL"] = buffer.add_accessor(-1, TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                                         TINYGLTF_TYPE_VEC3, back.num_points());
+    primitive.indices = buffer.add_accessor(
+        -1,
+        back.num_points() <= kMaxShortVertices ? TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT
+                                               : TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+        TINYGLTF_TYPE_SCALAR, 3 * std::size_t(back.num_faces()));
+    tinygltf::Value::Object attributes;
+    attributes["POSITION"] = tinygltf::Value(static_cast<int>(dm.attribute(position)->unique_id()));
+    attributes["NORMAL"] = tinygltf::Value(static_cast<int>(dm.attribute(normal)->unique_id()));
+    tinygltf::Value::Object extension;
+    extension["bufferView"] = tinygltf::Value(view);
+    extension["attributes"] = tinygltf::Value(std::move(attributes));
+    primitive.extensions[kDraco] = tinygltf::Value(std::move(extension));
+}
+
 /// Adds the mesh, material and node of one object; returns the node index.
 int add_object(tinygltf::Model& model,
                BufferBuilder& buffer,
                const SceneObject& object,
-               const SceneInfo& info) {
+               const SceneInfo& info,
+               const std::filesystem::path& path,
+               const SceneGltfOptions& options) {
     const TriMesh& mesh = object.mesh;
     const std::size_t n = mesh.positions.size();
 
@@ -179,31 +265,35 @@ int add_object(tinygltf::Model& model,
 
     tinygltf::Primitive primitive;
     primitive.mode = TINYGLTF_MODE_TRIANGLES;  // note: tinygltf's default -1 would be written
-    const int position_view = buffer.add_view(positions.data(), positions.size() * sizeof(float),
-                                              TINYGLTF_TARGET_ARRAY_BUFFER);
-    const int position_accessor =
-        buffer.add_accessor(position_view, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
-    model.accessors[position_accessor].minValues = min;
-    model.accessors[position_accessor].maxValues = max;
-    primitive.attributes["POSITION"] = position_accessor;
-    const int normal_view = buffer.add_view(normals.data(), normals.size() * sizeof(float),
-                                            TINYGLTF_TARGET_ARRAY_BUFFER);
-    primitive.attributes["NORMAL"] =
-        buffer.add_accessor(normal_view, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
-
-    const std::size_t index_count = 3 * mesh.triangles.size();
-    if (n <= kMaxShortVertices) {
-        const auto indices = flat_indices<std::uint16_t>(mesh);
-        const int view = buffer.add_view(indices.data(), indices.size() * sizeof(std::uint16_t),
-                                         TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-        primitive.indices = buffer.add_accessor(view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
-                                                TINYGLTF_TYPE_SCALAR, index_count);
+    if (options.draco) {
+        add_draco_primitive(model, buffer, primitive, path, positions, normals, mesh, options);
     } else {
-        const auto indices = flat_indices<std::uint32_t>(mesh);
-        const int view = buffer.add_view(indices.data(), indices.size() * sizeof(std::uint32_t),
-                                         TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
-        primitive.indices = buffer.add_accessor(view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
-                                                TINYGLTF_TYPE_SCALAR, index_count);
+        const int position_view = buffer.add_view(
+            positions.data(), positions.size() * sizeof(float), TINYGLTF_TARGET_ARRAY_BUFFER);
+        const int position_accessor = buffer.add_accessor(
+            position_view, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+        model.accessors[position_accessor].minValues = min;
+        model.accessors[position_accessor].maxValues = max;
+        primitive.attributes["POSITION"] = position_accessor;
+        const int normal_view = buffer.add_view(normals.data(), normals.size() * sizeof(float),
+                                                TINYGLTF_TARGET_ARRAY_BUFFER);
+        primitive.attributes["NORMAL"] =
+            buffer.add_accessor(normal_view, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+
+        const std::size_t index_count = 3 * mesh.triangles.size();
+        if (n <= kMaxShortVertices) {
+            const auto indices = flat_indices<std::uint16_t>(mesh);
+            const int view = buffer.add_view(indices.data(), indices.size() * sizeof(std::uint16_t),
+                                             TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            primitive.indices = buffer.add_accessor(view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                                    TINYGLTF_TYPE_SCALAR, index_count);
+        } else {
+            const auto indices = flat_indices<std::uint32_t>(mesh);
+            const int view = buffer.add_view(indices.data(), indices.size() * sizeof(std::uint32_t),
+                                             TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            primitive.indices = buffer.add_accessor(view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+                                                    TINYGLTF_TYPE_SCALAR, index_count);
+        }
     }
 
     const std::string name = object_name(object);
@@ -295,7 +385,8 @@ void write_gltf_pair(const std::filesystem::path& path,
 
 void write_scene_gltf(const std::filesystem::path& path,
                       const std::vector<SceneObject>& objects,
-                      const SceneInfo& info) {
+                      const SceneInfo& info,
+                      const SceneGltfOptions& options) {
     detail::require_gltf_extension(path);
     const std::string ext = lowercase_extension(path);
     if (objects.empty()) {
@@ -318,9 +409,20 @@ void write_scene_gltf(const std::filesystem::path& path,
                  "non-empty object");
     }
 
+    if (options.draco &&
+        !(options.position_bits >= 1 && options.position_bits <= 30 && options.normal_bits >= 1 &&
+          options.normal_bits <= 30 && options.draco_speed >= 0 && options.draco_speed <= 10)) {
+        fail(ErrorCode::InvalidInput, path,
+             "Draco options out of range: position_bits and normal_bits 1-30, speed 0-10");
+    }
+
     tinygltf::Model model;
     model.asset.version = "2.0";
     model.asset.generator = info.generator;
+    if (options.draco) {
+        model.extensionsUsed = {kDraco};
+        model.extensionsRequired = {kDraco};
+    }
 
     tinygltf::Node root;
     root.name = "patient";
@@ -331,7 +433,7 @@ void write_scene_gltf(const std::filesystem::path& path,
     std::vector<int> children;
     for (const SceneObject& object : objects) {
         if (!object.mesh.triangles.empty()) {
-            children.push_back(add_object(model, buffer, object, info));
+            children.push_back(add_object(model, buffer, object, info, path, options));
         }
     }
     model.nodes[0].children = std::move(children);

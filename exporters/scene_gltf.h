@@ -25,6 +25,16 @@ struct SceneInfo {
     std::string generator;               ///< glTF `asset.generator`, e.g. "strata 0.1.0"
 };
 
+/// How the scene's geometry is stored.
+struct SceneGltfOptions {
+    /// Compress every primitive with Draco (KHR_draco_mesh_compression, required by the file):
+    /// Edgebreaker, positions and normals quantized; else plain float32 accessors.
+    bool draco = false;
+    int position_bits = 16;  ///< Draco quantization of positions (bits over the object's extent)
+    int normal_bits = 12;    ///< Draco quantization of normals (octahedral bits)
+    int draco_speed = 3;     ///< Draco encoder speed, 0 (smallest) .. 10 (fastest)
+};
+
 /// Writes `objects` as a plain (single-resolution) glTF 2.0 scene, binary `.glb` (one file) or
 /// `.gltf` (JSON plus `<stem>.bin` beside it), chosen by the extension of `path`
 /// (case-insensitive). Layout (../shared/DESIGN.md section 4): one root node "patient" whose
@@ -37,7 +47,9 @@ struct SceneInfo {
 /// single-sided). Node `extras`: {"label", "source", "spacing_mm", "units": "mm"}; an empty name
 /// becomes "label <value>". Objects without triangles are skipped; unreferenced vertices are kept
 /// (a vertex whose normal is undefined, e.g. unreferenced or only in degenerate triangles, gets
-/// +z).
+/// +z). With `options.draco` the primitive is Draco-compressed instead (the accessors have no
+/// buffer view and carry the decoded mesh's counts and bounds; Draco drops unreferenced
+/// vertices and reorders the rest).
 ///
 /// Atomic: everything is built in memory and written to temporary files that are renamed into
 /// place, so on failure existing files are untouched and no partial file is left. Parent folders
@@ -49,6 +61,7 @@ struct SceneInfo {
 ///        finite; Error{Io} if a file cannot be written; Error{Internal} if tinygltf fails.
 void write_scene_gltf(const std::filesystem::path& path,
                       const std::vector<SceneObject>& objects,
-                      const SceneInfo& info);
+                      const SceneInfo& info,
+                      const SceneGltfOptions& options = {});
 
 }  // namespace strata

@@ -6,9 +6,11 @@
 set -euo pipefail
 
 apt_packages=(
-    g++ cmake make pkg-config git
+    g++ cmake make pkg-config git ccache
     libopenimageio-dev openimageio-tools libopencv-core-dev  # image stacks (see PACKAGES.md)
     zlib1g-dev                                               # NIfTI .nii.gz, NRRD gzip
+    libdcmtk-dev                                             # DICOM RTSTRUCT (DCMTK dcmdata)
+    libtiff-dev                                              # TIFF strips checked (input)
     nlohmann-json3-dev libcli11-dev
     libtinygltf-dev libdraco-dev                             # glTF writer, Draco chunks
     libmeshoptimizer-dev                                     # EXT_meshopt_compression (lods.glb)

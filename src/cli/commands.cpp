@@ -18,10 +18,12 @@
 #include "core/report.h"
 #include "debug/draw_contours.h"
 #include "debug/draw_medial.h"
+#include "exporters/detail/meshopt_scene.h"
 #include "exporters/lod_gltf.h"
 #include "exporters/progressive_gltf.h"
 #include "exporters/read_progressive_gltf.h"
 #include "exporters/scene_gltf.h"
+#include "input/planar_contours.h"
 #include "input/read_slice_stack.h"
 #include "input/write_nifti.h"
 #include "input/write_slice_stack.h"
@@ -30,6 +32,7 @@
 #include "mesh/shading_normals.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
+#include "pipeline/reconstruct_contours.h"
 
 namespace strata::cli {
 
@@ -625,19 +628,44 @@ int run_build(const BuildOptions& options) {
     const LodRequest lod_request = parse_lod_levels(options.lod_levels);
     Report report;
     TerminalProgress progress(options.output.quiet || options.output.json);
-    const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
-                                        options.color_table, options.labels, progress, report);
-    const double input_seconds = seconds_since(start);
-
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
     reconstruct_options.multires.cluster_triangles = options.cluster_triangles;
     reconstruct_options.progress = progress.callback();
-    const Reconstruction result = reconstruct(stack, reconstruct_options, report);
+    SliceStack stack;
+    Reconstruction result;
+    double input_seconds = 0.0;
+    if (!options.input.empty() && is_planar_contour_file(options.input)) {
+        // Planar contours (RTSTRUCT, contour JSON): one reconstruction per structure, gathered
+        // in the contours' common frame.
+        PlanarContours contours =
+            clean_planar_contours(read_raw_contours(options.input, options.reference_ct),
+                                  ContourCleaningOptions{}, report);
+        if (!options.labels.empty()) {
+            select_contour_objects(contours, options.labels);
+        }
+        ContourGridOptions grid;
+        grid.pitch_mm = options.contour_pitch_mm;
+        ContourFrame frame = contour_frame(contours, grid, report);
+        input_seconds = seconds_since(start);
+        result = reconstruct_contours(contours, frame, grid, reconstruct_options, report);
+        stack = std::move(frame.stack);
+    } else {
+        if (!options.reference_ct.empty() || options.contour_pitch_mm > 0.0) {
+            throw Error(ErrorCode::InvalidInput,
+                        "--reference-ct and --contour-pitch apply to planar contour input "
+                        "(DICOM RTSTRUCT or contour JSON), not to '" +
+                            options.input + "'");
+        }
+        stack = load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
+                           options.labels, progress, report);
+        input_seconds = seconds_since(start);
+        result = reconstruct(stack, reconstruct_options, report);
+    }
     progress.finish();
 
-    if (!options.debug_dir.empty()) {
+    if (!options.debug_dir.empty() && stack.depth > 0) {
         const DebugView view = debug_view(stack);
         for (std::uint32_t k = 0; k < stack.depth; ++k) {
             char name[48];
@@ -781,7 +809,13 @@ int run_build(const BuildOptions& options) {
         const Vec3 spacing = stack.spacing_mm();
         info.spacing_mm = {spacing.x, spacing.y, spacing.z};
         info.generator = "strata 0.1.0";
-        write_scene_gltf(scene_file, scene, info);
+        if (options.scene_meshopt) {
+            detail::write_meshopt_scene(scene_file, scene, info);  // EXT_meshopt_compression
+        } else {
+            SceneGltfOptions scene_options;
+            scene_options.draco = !options.scene_uncompressed;
+            write_scene_gltf(scene_file, scene, info, scene_options);
+        }
     }
 
     Json summary;
@@ -1028,9 +1062,88 @@ int run_phantom(const PhantomCommandOptions& options) {
     return 0;
 }
 
+namespace {
+
+/// `strata info` of planar contours (RTSTRUCT, contour JSON): every structure as read and cleaned.
+int info_of_contours(const InfoOptions& options) {
+    Report report;
+    const PlanarContours contours = clean_planar_contours(read_raw_contours(options.input, ""),
+                                                          ContourCleaningOptions{}, report);
+    Json objects = Json::array();
+    for (const ContourObject& o : contours.objects) {
+        std::size_t count = 0;
+        for (const ContourPlane& plane : o.planes) {
+            count += plane.contours.size();
+        }
+        Json j = {{"number", o.number},
+                  {"name", o.name},
+                  {"interpreted_type", o.interpreted_type},
+                  {"color_srgb", {o.color[0], o.color[1], o.color[2]}},
+                  {"planes", o.planes.size()},
+                  {"contours", count},
+                  {"markers", o.markers.size()}};
+        if (!o.planes.empty()) {
+            j["plane_range_mm"] = {o.planes.front().w, o.planes.back().w};
+        }
+        objects.push_back(j);
+    }
+    Json j = {{"source", contours.source},
+              {"frame", contours.frame},
+              {"plane_normal", {contours.normal.x, contours.normal.y, contours.normal.z}},
+              {"structures", objects},
+              {"warnings", warnings_json(report)}};
+    if (contours.reference) {
+        const PlaneGrid& g = *contours.reference;
+        j["reference_grid"] = {
+            {"columns", g.columns}, {"rows", g.rows}, {"pixel_mm", {g.pixel_mm[0], g.pixel_mm[1]}}};
+    }
+    if (options.output.json) {
+        std::cout << j.dump(2) << '\n';
+        return 0;
+    }
+    if (options.output.quiet) {
+        return 0;
+    }
+    std::cout << "input:   " << contours.source << " (planar contours, frame " << contours.frame
+              << ")\n";
+    std::cout << "normal:  " << format_vec(contours.normal) << '\n';
+    if (contours.reference) {
+        std::cout << "grid:    " << contours.reference->columns << " x " << contours.reference->rows
+                  << ", " << contours.reference->pixel_mm[0] << " x "
+                  << contours.reference->pixel_mm[1] << " mm pixels (reference CT)\n";
+    }
+    std::cout << "structures: " << contours.objects.size() << '\n';
+    for (const Json& o : objects) {
+        char buf[256];
+        std::snprintf(
+            buf, sizeof(buf), "  %5d  %-28s  #%02x%02x%02x  %-10s %4zu planes  %5zu contours",
+            o["number"].get<int>(), o["name"].get<std::string>().c_str(),
+            o["color_srgb"][0].get<int>(), o["color_srgb"][1].get<int>(),
+            o["color_srgb"][2].get<int>(), o["interpreted_type"].get<std::string>().c_str(),
+            o["planes"].get<std::size_t>(), o["contours"].get<std::size_t>());
+        std::cout << buf;
+        if (o.contains("plane_range_mm")) {
+            std::snprintf(buf, sizeof(buf), "  %.2f..%.2f mm", o["plane_range_mm"][0].get<double>(),
+                          o["plane_range_mm"][1].get<double>());
+            std::cout << buf;
+        }
+        if (o["markers"].get<std::size_t>() > 0) {
+            std::cout << "  " << o["markers"].get<std::size_t>() << " markers";
+        }
+        std::cout << '\n';
+    }
+    print_warnings(std::cerr, report);
+    return 0;
+}
+
+}  // namespace
+
 int run_info(const InfoOptions& options) {
     if (is_gltf_path(options.input)) {
         return info_of_file(options);
+    }
+    if (is_planar_contour_file(options.input)) {
+        return info_of_contours(options);
     }
     Report report;
     ReadOptions read;

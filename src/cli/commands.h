@@ -37,6 +37,13 @@ struct BuildOptions {
     /// px allowed) or this many levels ("3"); empty: not written.
     std::string lod_levels;
     std::string lod_compression = "draco";  ///< --lod-compression: draco or meshopt
+    bool scene_meshopt = false;  ///< --scene-meshopt: scene.glb with EXT_meshopt_compression
+    /// Planar contour input (RTSTRUCT): a CT slice file or folder whose grid the contours'
+    /// pixel grid is aligned with; empty: a CT beside the RTSTRUCT in its frame, if any.
+    std::string reference_ct;
+    double contour_pitch_mm = 0.0;  ///< planar contour input: pixel pitch, mm; 0: automatic
+    /// OUTPUT/scene.glb with plain float accessors instead of Draco (--scene-uncompressed).
+    bool scene_uncompressed = false;
     OutputOptions output;
 };
 

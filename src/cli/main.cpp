@@ -46,8 +46,17 @@ int main(int argc, char** argv) {
     CLI::App* build_cmd = app.add_subcommand(
         "build", "Reconstruct surfaces from a label stack (default: the built-in phantom)");
     build_cmd->add_option("input", build.input,
-                          "Folder of slice images, multi-page TIFF, NIfTI (.nii/.nii.gz) or NRRD "
-                          "(.nrrd/.seg.nrrd/.nhdr); omitted: the built-in phantom");
+                          "Folder of slice images, multi-page TIFF, NIfTI (.nii/.nii.gz), NRRD "
+                          "(.nrrd/.seg.nrrd/.nhdr), DICOM RTSTRUCT or contour JSON; omitted: the "
+                          "built-in phantom");
+    build_cmd->add_option("--reference-ct", build.reference_ct,
+                          "RTSTRUCT input: CT slice file or folder whose pixel grid the contours' "
+                          "grid is aligned with (default: a CT beside the RTSTRUCT, if any)");
+    build_cmd
+        ->add_option("--contour-pitch", build.contour_pitch_mm,
+                     "Planar contour input: pixel pitch in mm of the grid the contours are "
+                     "scan-converted on (default: a quarter of the CT pixel)")
+        ->check(CLI::Range(0.0, 1e6));
     build_cmd
         ->add_option("--phantom", build.phantom, "Built-in phantom to use when no input is given")
         ->capture_default_str();
@@ -81,6 +90,9 @@ int main(int argc, char** argv) {
                      "plus a buffer file per level, for streaming)")
         ->check(CLI::IsMember({"glb", "gltf"}))
         ->capture_default_str();
+    build_cmd->add_flag("--scene-uncompressed", build.scene_uncompressed,
+                        "Write OUTPUT/scene.glb without Draco compression (plain float "
+                        "accessors, for viewers without a Draco decoder)");
     build_cmd
         ->add_option("--cluster-triangles", build.cluster_triangles,
                      "Target triangles per cluster of the multiresolution model")
@@ -95,6 +107,9 @@ int main(int argc, char** argv) {
                      "(EXT_meshopt_compression)")
         ->check(CLI::IsMember({"draco", "meshopt"}))
         ->capture_default_str();
+    build_cmd->add_flag("--scene-meshopt", build.scene_meshopt,
+                        "Write OUTPUT/scene.glb with EXT_meshopt_compression (16-bit positions per "
+                        "object) for pipelines that prefer meshopt's decode speed");
     add_output_flags(*build_cmd, build.output);
 
     strata::cli::PhantomCommandOptions phantom;

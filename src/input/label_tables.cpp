@@ -40,24 +40,39 @@ std::optional<double> parse_finite(std::string_view text) {
 }
 
 std::string read_text(const std::filesystem::path& file, const std::string& where) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::file_status status = fs::status(file, ec);
+    if (status.type() == fs::file_type::not_found) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": no such colour table file " + file.string());
+    }
+    if (ec || status.type() != fs::file_type::regular) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": colour table " + file.string() +
+                        " is not a regular file (a FIFO, device or folder), expected a text or "
+                        "JSON file");
+    }
     std::ifstream in(file, std::ios::binary);
     if (!in) {
         throw Error(ErrorCode::Io, where + ": cannot open colour table " + file.string() + ": " +
                                        std::strerror(errno));
     }
-    std::error_code ec;
-    const std::uintmax_t size = std::filesystem::file_size(file, ec);
-    if (!ec && size > kMaxTableBytes) {
-        throw Error(ErrorCode::InvalidInput,
-                    where + ": " + std::to_string(size) +
-                        " bytes is too large for a colour table (at most 64 MiB expected)");
+    // note: read in pieces and stop at the cap, whatever size the file system reports
+    std::string text;
+    char buffer[1 << 16];
+    while (in.read(buffer, sizeof(buffer)) || in.gcount() > 0) {
+        text.append(buffer, static_cast<std::size_t>(in.gcount()));
+        if (text.size() > kMaxTableBytes) {
+            throw Error(ErrorCode::InvalidInput,
+                        where + ": more than " + std::to_string(kMaxTableBytes) +
+                            " bytes is too large for a colour table (at most 64 MiB expected)");
+        }
     }
-    std::ostringstream text;
-    text << in.rdbuf();
     if (in.bad()) {
         throw Error(ErrorCode::Io, where + ": read error");
     }
-    return text.str();
+    return text;
 }
 
 /// Adds an entry, rejecting duplicates; value 0 (background) is skipped.

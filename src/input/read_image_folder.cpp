@@ -5,6 +5,7 @@
 #include <fstream>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <OpenImageIO/imageio.h>
@@ -12,6 +13,7 @@
 
 #include "core/error.h"
 #include "input/detail/readers.h"
+#include "input/detail/tiff.h"
 
 namespace strata::detail {
 
@@ -289,6 +291,32 @@ void read_label_image(OIIO::ImageInput& in,
     }
 }
 
+bool is_tiff(const fs::path& file) {
+    const std::string ext = lower(file.extension().string());
+    return ext == ".tif" || ext == ".tiff";
+}
+
+/// Refuses an image file whose bytes cannot decode to `pixels` pixels (a header claiming
+/// 60000^2 pixels in 100 bytes) before anything is allocated for it: PNG is deflate (at most
+/// 1032:1); other formats are bounded generously at 4096:1 (TIFF strips are checked one by one
+/// when read).
+void check_image_holds(const fs::path& file, std::uint64_t pixels) {
+    std::error_code ec;
+    const std::uint64_t bytes = fs::file_size(file, ec);
+    if (ec) {
+        throw Error(ErrorCode::Io, file.string() + ": cannot read size: " + ec.message());
+    }
+    const std::uint64_t ratio = lower(file.extension().string()) == ".png" ? 1032 : 4096;
+    const std::uint64_t can_hold = bytes * ratio + 4096;
+    if (pixels > can_hold) {
+        throw Error(ErrorCode::InvalidInput,
+                    file.string() + ": header claims " + std::to_string(pixels) +
+                        " pixels but the file's " + std::to_string(bytes) +
+                        " bytes can hold at most " + std::to_string(can_hold) +
+                        ", expected image data for every pixel (truncated or forged header?)");
+    }
+}
+
 std::unique_ptr<OIIO::ImageInput> open_image(const fs::path& file) {
     auto in = OIIO::ImageInput::open(file.string());
     if (!in) {
@@ -320,14 +348,26 @@ SliceStack read_image_folder(const fs::path& folder, const ReadOptions& options,
 
     std::vector<std::string> names;
     std::error_code ec;
-    for (const auto& entry : fs::directory_iterator(image_dir, ec)) {
+    for (auto it = fs::directory_iterator(image_dir, ec); !ec && it != fs::directory_iterator();
+         it.increment(ec)) {
+        const fs::directory_entry& entry = *it;
         const std::string name = entry.path().filename().string();
-        if (!entry.is_regular_file() || name.empty() || name[0] == '.') {
+        if (name.empty() || name[0] == '.' ||
+            kImageExtensions.count(lower(entry.path().extension().string())) == 0) {
             continue;
         }
-        if (kImageExtensions.count(lower(entry.path().extension().string())) != 0) {
-            names.push_back(name);
+        // note: an image name that is a link loop, a FIFO or a folder is refused, not skipped
+        std::error_code status_ec;
+        const fs::file_type type = entry.status(status_ec).type();
+        if (status_ec || type != fs::file_type::regular) {
+            throw Error(ErrorCode::InvalidInput,
+                        entry.path().string() + ": " +
+                            (status_ec ? status_ec.message()
+                                       : std::string("not a regular file (a FIFO, device or "
+                                                     "folder)")) +
+                            ", expected an image file");
         }
+        names.push_back(name);
     }
     if (ec) {
         throw Error(ErrorCode::Io, image_dir.string() + ": cannot list folder: " + ec.message());
@@ -342,15 +382,18 @@ SliceStack read_image_folder(const fs::path& folder, const ReadOptions& options,
     SliceStack stack;
     stack.source = folder.string();
     stack.source_frame = meta.present ? meta.frame : "none";
-    {
+    if (is_tiff(image_dir / names[0])) {
+        TiffFile first(image_dir / names[0]);
+        std::tie(stack.width, stack.height) = first.size();
+    } else {
         auto first = open_image(image_dir / names[0]);
         const OIIO::ImageSpec& spec = first->spec();
-        if (spec.width <= 0 || spec.height <= 0) {
-            throw Error(ErrorCode::InvalidInput,
-                        (image_dir / names[0]).string() + ": empty image, expected positive size");
-        }
-        stack.width = static_cast<std::uint32_t>(spec.width);
-        stack.height = static_cast<std::uint32_t>(spec.height);
+        stack.width = static_cast<std::uint32_t>(std::max(spec.width, 0));
+        stack.height = static_cast<std::uint32_t>(std::max(spec.height, 0));
+    }
+    if (stack.width == 0 || stack.height == 0) {
+        throw Error(ErrorCode::InvalidInput,
+                    (image_dir / names[0]).string() + ": empty image, expected positive size");
     }
     stack.depth = static_cast<std::uint32_t>(names.size());
     if (meta.present && meta.dims[0] != 0 &&
@@ -364,13 +407,24 @@ SliceStack read_image_folder(const fs::path& folder, const ReadOptions& options,
     }
     check_stack_dimensions(stack.width, stack.height, stack.depth, folder.string(),
                            options.max_bytes);
+    for (const std::string& name : names) {
+        check_image_holds(image_dir / name, stack.slice_size());
+    }
     stack.labels.assign(stack.slice_size() * stack.depth, 0);
+    bool warned_channels = false;
     for (std::uint32_t k = 0; k < stack.depth; ++k) {
         const fs::path file = image_dir / names[k];
-        auto in = open_image(file);
-        read_label_image(*in, 0, stack.width, stack.height,
-                         "slice " + std::to_string(k) + " (" + names[k] + ")",
-                         stack.slice(k).data(), report);
+        const std::string where = "slice " + std::to_string(k) + " (" + names[k] + ")";
+        if (is_tiff(file)) {
+            TiffFile tiff(file);
+            std::vector<std::uint16_t> slice;
+            tiff.read_page(stack.width, stack.height, where, slice, warned_channels, report);
+            std::copy(slice.begin(), slice.end(), stack.slice(k).begin());
+        } else {
+            auto in = open_image(file);
+            read_label_image(*in, 0, stack.width, stack.height, where, stack.slice(k).data(),
+                             report);
+        }
         if (options.progress) {
             options.progress("slices", k + 1, stack.depth);
         }
@@ -388,43 +442,6 @@ SliceStack read_image_folder(const fs::path& folder, const ReadOptions& options,
         stack.index_to_world = meta.index_to_world;
     }
     stack.label_table = meta.labels;
-    return stack;
-}
-
-SliceStack read_multipage_tiff(const fs::path& file, const ReadOptions& options, Report& report) {
-    auto in = open_image(file);
-    SliceStack stack;
-    stack.source = file.string();
-    stack.source_frame = "none";
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0) {
-        throw Error(ErrorCode::InvalidInput,
-                    file.string() + ": empty image, expected positive size");
-    }
-    stack.width = static_cast<std::uint32_t>(spec.width);
-    stack.height = static_cast<std::uint32_t>(spec.height);
-    std::uint32_t pages = 0;
-    while (in->seek_subimage(static_cast<int>(pages), 0)) {
-        ++pages;
-        if (pages > (1u << 24)) {
-            throw Error(ErrorCode::InvalidInput, file.string() + ": more than 2^24 pages");
-        }
-    }
-    check_stack_dimensions(stack.width, stack.height, pages, file.string(), options.max_bytes);
-    stack.depth = pages;
-    stack.labels.assign(stack.slice_size() * stack.depth, 0);
-    for (std::uint32_t k = 0; k < pages; ++k) {
-        if (!in->seek_subimage(static_cast<int>(k), 0)) {
-            throw Error(ErrorCode::InvalidInput,
-                        file.string() + ": cannot seek to page " + std::to_string(k));
-        }
-        read_label_image(*in, static_cast<int>(k), stack.width, stack.height,
-                         file.filename().string() + " page " + std::to_string(k),
-                         stack.slice(k).data(), report);
-        if (options.progress) {
-            options.progress("slices", k + 1, stack.depth);
-        }
-    }
     return stack;
 }
 

@@ -114,14 +114,35 @@ public:
         return total;
     }
 
-    /// After the voxel data of a gzip file: reads on so that zlib checks the stream's CRC.
-    /// A missing trailer is tolerated (the voxel data was complete), a wrong CRC is not.
+    /// True when the file is gzip-compressed (valid after the first read).
+    bool is_compressed() { return gzdirect(handle_) == 0; }
+
+    /// After the voxel data of a gzip file: reads on to the end of the stream so that zlib
+    /// checks its CRC and length trailer. A wrong or missing trailer (a file cut short) is
+    /// refused; data beyond what the header promised is read and ignored.
     void check_trailer() {
         if (gzdirect(handle_) != 0) {
             return;
         }
-        unsigned char byte = 0;
-        if (gzread(handle_, &byte, 1) < 0) {
+        std::vector<unsigned char> scratch(std::size_t(1) << 16);
+        for (;;) {
+            const int got = gzread(handle_, scratch.data(), static_cast<unsigned>(scratch.size()));
+            if (got < 0) {
+                throw_stream_error();
+            }
+            if (got == 0) {
+                break;
+            }
+        }
+        int code = Z_OK;
+        gzerror(handle_, &code);
+        if (code == Z_BUF_ERROR) {
+            throw Error(ErrorCode::InvalidInput,
+                        where_ +
+                            ": truncated gzip stream: it ends without its CRC/length trailer, "
+                            "expected a complete gzip file (cut short in a copy or download?)");
+        }
+        if (code != Z_OK) {
             throw_stream_error();
         }
     }
@@ -943,18 +964,27 @@ SliceStack read_nifti(const std::filesystem::path& file,
     stack.width = static_cast<std::uint32_t>(width);
     stack.height = static_cast<std::uint32_t>(height);
     stack.depth = static_cast<std::uint32_t>(depth);
-    stack.labels.resize(width * height * depth);
     stack.index_to_world = affine;
     stack.source = file.string();
     stack.source_frame = frame;
     stack.label_table = std::move(label_table);
+
+    // What the file can hold: its bytes after vox_offset, or (gzip) 1032 times its size.
+    std::error_code ec;
+    const std::uint64_t file_bytes = std::filesystem::file_size(file, ec);
+    detail::DataBound bound;
+    if (!ec) {
+        bound.is_exact = !in.is_compressed();
+        bound.max_bytes = bound.is_exact ? (file_bytes > vox_offset ? file_bytes - vox_offset : 0)
+                                         : file_bytes * detail::kMaxDeflateRatio;
+    }
 
     // note: scl_slope 0 means the values are not scaled
     const ValueScaling scaling =
         h.scl_slope != 0.0 ? ValueScaling{h.scl_slope, h.scl_inter} : ValueScaling{};
     LabelDecoder decoder(type, h.swap, stack, where, options.progress, scaling);
     decoder.decode_all([&](unsigned char* out, std::size_t size) { return in.read(out, size); },
-                       " after vox_offset " + std::to_string(vox_offset));
+                       " after vox_offset " + std::to_string(vox_offset), bound);
     in.check_trailer();
     return stack;
 }

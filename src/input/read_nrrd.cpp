@@ -378,8 +378,13 @@ public:
             if (stream_.avail_in == 0 && !refill()) {
                 break;
             }
+            const uInt before = stream_.avail_out;
             const int status = inflate(&stream_, Z_NO_FLUSH);
+            if (stream_.avail_out != before) {
+                at_member_end_ = false;
+            }
             if (status == Z_STREAM_END) {
+                at_member_end_ = true;
                 // note: concatenated gzip members are one stream (as gunzip reads them)
                 if (stream_.avail_in == 0 && !refill()) {
                     is_done_ = true;
@@ -397,27 +402,31 @@ public:
         return size - stream_.avail_out;
     }
 
-    /// After the voxel data: lets zlib check the member's CRC. A missing trailer is tolerated
-    /// (the voxel data was complete), a wrong one is not.
+    /// After the voxel data: inflates to the end of the member so that zlib checks its CRC and
+    /// length trailer. A wrong or missing trailer (a file cut short) is refused; data beyond
+    /// what the header promised is inflated and ignored.
     void check_trailer() {
-        unsigned char scratch[256];
-        while (!is_done_) {
-            stream_.next_out = scratch;
-            stream_.avail_out = sizeof(scratch);
+        std::vector<unsigned char> scratch(std::size_t(1) << 16);
+        while (!is_done_ && !at_member_end_) {
             if (stream_.avail_in == 0 && !refill()) {
-                return;
+                throw Error(ErrorCode::InvalidInput,
+                            where_ +
+                                ": truncated gzip stream: it ends without its CRC/length "
+                                "trailer, expected a complete gzip stream (cut short?)");
             }
+            stream_.next_out = scratch.data();
+            stream_.avail_out = static_cast<uInt>(scratch.size());
             const int status = inflate(&stream_, Z_NO_FLUSH);
             if (status == Z_STREAM_END) {
                 return;
             }
-            if (status == Z_DATA_ERROR) {
+            if (status == Z_DATA_ERROR || status == Z_NEED_DICT) {
                 throw Error(ErrorCode::InvalidInput,
                             where_ + ": corrupt gzip data after the voxel data: " +
                                 (stream_.msg != nullptr ? stream_.msg : "invalid stream"));
             }
-            if (status != Z_OK || stream_.avail_out < sizeof(scratch)) {
-                return;  // more data than the header promised: ignored
+            if (status == Z_MEM_ERROR) {
+                throw Error(ErrorCode::Internal, where_ + ": zlib: out of memory");
             }
         }
     }
@@ -439,6 +448,7 @@ private:
     z_stream stream_{};
     std::array<unsigned char, 1 << 16> buffer_{};
     bool is_done_ = false;
+    bool at_member_end_ = false;  // the last inflate ended a member (its trailer checked)
 };
 
 std::size_t read_raw(std::istream& in,
@@ -617,6 +627,60 @@ std::vector<std::string> axis_values(const std::string& value,
                         " values, expected " + std::to_string(dimension) + " (dimension)");
     }
     return values;
+}
+
+/// Refuses a detached data file that is not a regular file, or that lies outside the folder of
+/// the header `file` (after resolving links: "../../etc/passwd", "/dev/urandom") unless it is
+/// `allowed` (ReadOptions::allowed_data_file, the CLI's --allow-data-file).
+void check_data_file(const std::filesystem::path& file,
+                     const std::filesystem::path& data_path,
+                     const std::filesystem::path& allowed,
+                     const std::string& where) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::file_status status = fs::status(data_path, ec);
+    if (ec && status.type() != fs::file_type::not_found) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": cannot resolve " + data_path.string() + ": " + ec.message());
+    }
+    if (status.type() == fs::file_type::not_found) {
+        throw Error(ErrorCode::Io, where + ": cannot open " + data_path.string() +
+                                       ": no such file, expected the header's data file");
+    }
+    if (status.type() != fs::file_type::regular) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": " + data_path.string() +
+                        " is not a regular file (a FIFO, device or folder), expected a file of "
+                        "voxel data");
+    }
+    const fs::path data = fs::canonical(data_path, ec);
+    const fs::path folder = fs::canonical(fs::absolute(file).parent_path(), ec);
+    if (!allowed.empty()) {
+        std::error_code allowed_ec;
+        const fs::path allowed_data = fs::canonical(allowed, allowed_ec);
+        if (!allowed_ec && !ec && allowed_data == data) {
+            return;
+        }
+    }
+    const fs::path relative = data.lexically_relative(folder);
+    if (ec || relative.empty() || *relative.begin() == "..") {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": the data file " + data.string() + " lies outside the folder of " +
+                        file.filename().string() +
+                        ", expected it beside the header (name it with --allow-data-file " +
+                        data.string() + " to read it anyway)");
+    }
+}
+
+/// Bytes from the read position of `in` to the end of `file` (0 when unknown).
+std::uint64_t data_bytes_left(std::istream& in, const std::filesystem::path& file) {
+    std::error_code ec;
+    const std::uint64_t size = std::filesystem::file_size(file, ec);
+    const std::streamoff at = in.tellg();
+    if (ec || at < 0) {
+        return UINT64_MAX / kMaxDeflateRatio;
+    }
+    return size > static_cast<std::uint64_t>(at) ? size - static_cast<std::uint64_t>(at) : 0;
 }
 
 }  // namespace
@@ -932,6 +996,7 @@ SliceStack read_nrrd(const std::filesystem::path& file,
     }
     std::ifstream detached;
     std::istream* data = &in;
+    std::filesystem::path data_file = file;
     std::string data_where = where;
     if (const std::string* value = find_field(header, "data file")) {
         if (*value == "LIST" || value->rfind("LIST ", 0) == 0 ||
@@ -945,12 +1010,14 @@ SliceStack read_nrrd(const std::filesystem::path& file,
             data_path = file.parent_path() / data_path;
         }
         data_where = where + ": data file " + *value;
+        check_data_file(file, data_path, options.allowed_data_file, data_where);
         detached.open(data_path, std::ios::binary);
         if (!detached) {
             throw Error(ErrorCode::Io, data_where + ": cannot open " + data_path.string() + ": " +
                                            std::strerror(errno));
         }
         data = &detached;
+        data_file = data_path;
     } else if (!header.has_blank_line) {
         throw Error(ErrorCode::InvalidInput,
                     where +
@@ -962,7 +1029,6 @@ SliceStack read_nrrd(const std::filesystem::path& file,
     stack.width = static_cast<std::uint32_t>(width);
     stack.height = static_cast<std::uint32_t>(height);
     stack.depth = static_cast<std::uint32_t>(depth);
-    stack.labels.resize(width * height * depth);
     stack.index_to_world = affine;
     stack.source = file.string();
     stack.source_frame = frame;
@@ -970,7 +1036,7 @@ SliceStack read_nrrd(const std::filesystem::path& file,
         stack.label_table = segment_label_table(segments, where, report);
     }
 
-    const std::uint64_t count = stack.labels.size();
+    const std::uint64_t count = width * height * depth;
     const std::uint64_t expected = count * value_bytes;
     LabelDecoder decoder(*type, swap, stack, data_where, options.progress);
     skip_lines(*data, line_skip, data_where);
@@ -992,7 +1058,8 @@ SliceStack read_nrrd(const std::filesystem::path& file,
             }
         }
         decoder.decode_all(
-            [&](unsigned char* out, std::size_t size) { return inflater.read(out, size); });
+            [&](unsigned char* out, std::size_t size) { return inflater.read(out, size); }, "",
+            DataBound{data_bytes_left(*data, data_file) * kMaxDeflateRatio, false});
         inflater.check_trailer();
         return stack;
     }
@@ -1019,9 +1086,9 @@ SliceStack read_nrrd(const std::filesystem::path& file,
     if (encoding == Encoding::Ascii) {
         decode_ascii(*data, count, decoder, data_where);
     } else {
-        decoder.decode_all([&](unsigned char* out, std::size_t size) {
-            return read_raw(*data, out, size, data_where);
-        });
+        decoder.decode_all([&](unsigned char* out,
+                               std::size_t size) { return read_raw(*data, out, size, data_where); },
+                           "", DataBound{data_bytes_left(*data, data_file), true});
     }
     return stack;
 }

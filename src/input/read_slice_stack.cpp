@@ -71,12 +71,32 @@ void apply_color_table(SliceStack& stack, const std::vector<LabelInfo>& table) {
     }
 }
 
-}  // namespace
-
-SliceStack read_slice_stack(const fs::path& path, const ReadOptions& options, Report& report) {
+/// The file or folder must exist and be a regular file or a folder (after links): a FIFO would
+/// block and a device never end.
+void check_input_path(const fs::path& path) {
     std::error_code ec;
-    if (!fs::exists(path, ec)) {
+    const fs::file_status status = fs::status(path, ec);
+    if (status.type() == fs::file_type::not_found) {
         throw Error(ErrorCode::InvalidInput, path.string() + ": no such file or folder");
+    }
+    if (ec) {
+        throw Error(ErrorCode::InvalidInput, path.string() + ": cannot resolve: " + ec.message() +
+                                                 ", expected a label stack file or folder");
+    }
+    if (status.type() != fs::file_type::regular && status.type() != fs::file_type::directory) {
+        throw Error(ErrorCode::InvalidInput,
+                    path.string() +
+                        ": not a regular file or folder (a FIFO, socket or device), expected a "
+                        "label stack file or folder");
+    }
+}
+
+SliceStack read_any(const fs::path& path, const ReadOptions& options, Report& report) {
+    check_input_path(path);
+    // note: the colour table first, so that a missing one is reported before a long read
+    std::vector<LabelInfo> color_table;
+    if (!options.color_table.empty()) {
+        color_table = detail::read_color_table(options.color_table);
     }
     SliceStack stack;
     switch (sniff(path)) {
@@ -98,7 +118,9 @@ SliceStack read_slice_stack(const fs::path& path, const ReadOptions& options, Re
             if (ext == ".mgz" || ext == ".mgh") {
                 hint = " (FreeSurfer: convert with `mri_convert in.mgz out.nii.gz`)";
             } else if (ext == ".dcm") {
-                hint = " (DICOM is not read yet: export the segmentation as NIfTI or NRRD)";
+                hint =
+                    " (of DICOM, strata reads RTSTRUCT contours with `strata build`/`info`; "
+                    "export a DICOM SEG or image as NIfTI or NRRD)";
             }
             throw Error(ErrorCode::Unsupported,
                         path.string() + ": unknown input format" + hint +
@@ -110,14 +132,24 @@ SliceStack read_slice_stack(const fs::path& path, const ReadOptions& options, Re
     if (options.spacing_mm) {
         override_spacing(stack, *options.spacing_mm);
     }
-    if (!options.color_table.empty()) {
-        apply_color_table(stack, detail::read_color_table(options.color_table));
-    }
+    apply_color_table(stack, color_table);
     complete_label_table(stack);
     if (stack.label_table.empty()) {
         report.warn("input", path.string(), "every pixel is background (0): no objects");
     }
     return stack;
+}
+
+}  // namespace
+
+SliceStack read_slice_stack(const fs::path& path, const ReadOptions& options, Report& report) {
+    try {
+        return read_any(path, options, report);
+    } catch (const fs::filesystem_error& e) {
+        // note: e.g. a symbolic link loop met while listing a folder
+        throw Error(ErrorCode::InvalidInput,
+                    path.string() + ": " + e.what() + ", expected readable files and folders");
+    }
 }
 
 }  // namespace strata

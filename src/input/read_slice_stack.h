@@ -17,6 +17,9 @@ struct ReadOptions {
     /// Colour table naming labels the file leaves unnamed: 3D Slicer `.ctbl`/`.txt`, ITK-SNAP
     /// label description, or a JSON object {"1": "spleen", ...}. Empty: none.
     std::filesystem::path color_table;
+    /// A NRRD detached data file the user allows although it lies outside the header's folder
+    /// (the CLI's --allow-data-file). Empty: data files must lie beside their header.
+    std::filesystem::path allowed_data_file;
     /// Readers refuse stacks whose label images would need more bytes than this.
     std::uint64_t max_bytes = kMaxStackBytes;
     /// Called as slices are read (may be empty).

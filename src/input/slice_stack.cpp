@@ -134,7 +134,17 @@ std::string lowercase(std::string s) {
 
 void select_labels(SliceStack& stack, const std::vector<std::string>& selectors) {
     std::vector<bool> keep(65536, false);
-    for (const std::string& selector : selectors) {
+    for (const std::string& written : selectors) {
+        // note: "liver, spleen" splits into "liver" and " spleen": spaces around a name are not
+        // part of it (names with inner spaces, "Left Lung", still match)
+        const std::size_t first = written.find_first_not_of(" \t");
+        if (first == std::string::npos) {
+            throw Error(ErrorCode::InvalidInput,
+                        "--labels: an empty entry in the list, expected label values or names "
+                        "separated by commas");
+        }
+        const std::string selector =
+            written.substr(first, written.find_last_not_of(" \t") - first + 1);
         bool found = false;
         for (const LabelInfo& label : stack.label_table) {
             if (std::to_string(label.value) == selector ||

@@ -217,6 +217,11 @@ SelfIntersections find_self_intersections(const TriMesh& mesh, std::size_t max_p
     return result;
 }
 
+bool triangle_is_degenerate(const std::array<Vec3, 3>& t) {
+    return CGAL::collinear(Point(t[0].x, t[0].y, t[0].z), Point(t[1].x, t[1].y, t[1].z),
+                           Point(t[2].x, t[2].y, t[2].z));
+}
+
 bool triangles_intersect(const std::array<Vec3, 3>& a,
                          const std::array<std::uint32_t, 3>& a_ids,
                          const std::array<Vec3, 3>& b,

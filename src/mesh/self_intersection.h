@@ -43,6 +43,10 @@ SelfIntersections find_self_intersections(const TriMesh& mesh, std::size_t max_p
 /// `SelfIntersections::is_free`); stops at the first intersecting pair or degenerate triangle.
 bool has_self_intersections(const TriMesh& mesh);
 
+/// True when the corners of `t` are collinear (a repeated corner included), exactly: the
+/// triangles `find_self_intersections` lists as degenerate.
+bool triangle_is_degenerate(const std::array<Vec3, 3>& t);
+
 /// The pairwise test of `find_self_intersections` for two triangles given by their corners and
 /// vertex ids: true when they intersect beyond the vertices and edges they share (equal ids), or
 /// when either is degenerate (three collinear corners). Exact (CGAL predicates on the doubles).

@@ -112,7 +112,9 @@ std::vector<Vec3> shading_normals(const TriMesh& mesh, unsigned rings) {
         std::sort(ring.begin(), ring.end());  // sum in vertex order
         Vec3 sum{};
         for (const std::uint32_t u : ring) {
-            sum = sum + angle_weighted[u];
+            if (dot(angle_weighted[u], angle_weighted[v]) > -0.5) {
+                sum = sum + angle_weighted[u];
+            }
         }
         Vec3 result = unit_or_zero(sum);
         if (result == Vec3{}) {

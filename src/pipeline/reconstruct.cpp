@@ -297,6 +297,7 @@ Reconstruction reconstruct(const SliceStack& stack,
             MultiresOptions label_options = multires;
             label_options.progress = nullptr;
             label_options.threads = options.threads;
+            label_options.grid_step = surface.grid_step;
             if (surface.verification.done && !surface.verification.ok()) {
                 label_options.max_levels = 0;  // note: collapses assume a closed manifold
                 kept[i] = "surface failed verification; kept at full resolution only";

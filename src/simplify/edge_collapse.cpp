@@ -194,11 +194,19 @@ public:
               const SliceErrorMeter& meter,
               const CollapseOptions& options)
         : positions_(*problem.positions),
+          exact_(problem.exact_positions != nullptr ? *problem.exact_positions
+                                                    : *problem.positions),
           pieces_(problem.pieces),
           meter_(meter),
           options_(options),
           cache_(options.error_floor_px, options.max_error_px),
           grid_(grid_cell(problem)) {
+        if (exact_.size() != positions_.size()) {
+            throw Error(ErrorCode::InvalidInput, "edge collapse: " + std::to_string(exact_.size()) +
+                                                     " exact positions for " +
+                                                     std::to_string(positions_.size()) +
+                                                     " vertices");
+        }
         // Local vertex ids: the piece's vertices in increasing global id.
         for (const Tri& t : problem.triangles) {
             for (const std::uint32_t g : t) {
@@ -237,7 +245,7 @@ public:
             for (const std::uint32_t v : lt) {
                 vertex_triangles_[v].push_back(id);
             }
-            grid_.insert(id, corners(id));
+            grid_.insert(id, exact_corners(id));
         }
         alive_count_ = triangles_.size();
         triangle_pieces_.resize(triangles_.size());
@@ -335,14 +343,17 @@ private:
     static constexpr std::uint32_t kObstacleBit = 0x80000000u;
 
     static double grid_cell(const CollapseProblem& problem) {
-        // About twice the mean edge length: a triangle covers a few cells.
+        // About twice the mean edge length (in the exact frame, where the grid lies): a triangle
+        // covers a few cells.
+        const std::vector<Vec3>& positions =
+            problem.exact_positions != nullptr ? *problem.exact_positions : *problem.positions;
         double sum = 0.0;
         std::size_t count = 0;
         for (const Tri& t : problem.triangles) {
             for (int i = 0; i < 3; ++i) {
                 const std::uint32_t a = t[i], b = t[(i + 1) % 3];
-                if (a < problem.positions->size() && b < problem.positions->size()) {
-                    sum += norm((*problem.positions)[a] - (*problem.positions)[b]);
+                if (a < positions.size() && b < positions.size()) {
+                    sum += norm(positions[a] - positions[b]);
                     ++count;
                 }
             }
@@ -360,9 +371,15 @@ private:
         const Tri& lt = triangles_[t];
         return {position(lt[0]), position(lt[1]), position(lt[2])};
     }
+    const Vec3& exact(std::uint32_t v) const { return exact_[global_[v]]; }
+    std::array<Vec3, 3> exact_corners(std::uint32_t t) const {
+        const Tri& lt = triangles_[t];
+        return {exact(lt[0]), exact(lt[1]), exact(lt[2])};
+    }
+    /// Obstacle i in the exact frame.
     std::array<Vec3, 3> obstacle_corners(std::uint32_t i) const {
         const Tri& g = obstacles_[i];
-        return {positions_[g[0]], positions_[g[1]], positions_[g[2]]};
+        return {exact_[g[0]], exact_[g[1]], exact_[g[2]]};
     }
 
     /// Every edge of the piece in at most two triangles, once in each direction.
@@ -416,14 +433,33 @@ private:
         return lt[0] == v || lt[1] == v || lt[2] == v;
     }
 
-    /// Triangle t with u replaced by v.
-    std::array<Vec3, 3> moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+    /// Triangle t with u replaced by v, with corners from `frame` (positions_ or exact_).
+    std::array<Vec3, 3> moved_in(const std::vector<Vec3>& frame,
+                                 std::uint32_t t,
+                                 std::uint32_t u,
+                                 std::uint32_t v) const {
         const Tri& lt = triangles_[t];
         std::array<Vec3, 3> c{};
         for (int i = 0; i < 3; ++i) {
-            c[i] = position(lt[i] == u ? v : lt[i]);
+            c[i] = frame[global_[lt[i] == u ? v : lt[i]]];
         }
         return c;
+    }
+    std::array<Vec3, 3> moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        return moved_in(positions_, t, u, v);
+    }
+    /// The same in the exact frame.
+    std::array<Vec3, 3> exact_moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        return moved_in(exact_, t, u, v);
+    }
+
+    /// Local ids of triangle t with u replaced by v.
+    Tri local_moved(std::uint32_t t, std::uint32_t u, std::uint32_t v) const {
+        Tri ids = triangles_[t];
+        for (std::uint32_t& w : ids) {
+            w = w == u ? v : w;
+        }
+        return ids;
     }
 
     /// Global ids of triangle t with u replaced by v.
@@ -501,6 +537,61 @@ private:
         return true;
     }
 
+    /// Number of folds (edges whose two triangles turn by more than 90 degrees: normals pointing
+    /// apart) among the edges of u's star, before collapsing u onto v or after (the edges of the
+    /// changed triangles). Edges with a triangle outside the piece are not counted.
+    std::size_t folds(std::uint32_t u, std::uint32_t v, bool after) const {
+        std::vector<std::pair<std::uint32_t, std::uint32_t>>& edges = fold_edges_;
+        edges.clear();
+        auto ids_of = [&](std::uint32_t t) { return after ? local_moved(t, u, v) : triangles_[t]; };
+        for (const std::uint32_t t : vertex_triangles_[u]) {
+            if (after && contains(t, v)) {
+                continue;  // removed by the collapse
+            }
+            const Tri ids = ids_of(t);
+            for (int i = 0; i < 3; ++i) {
+                edges.emplace_back(std::min(ids[i], ids[(i + 1) % 3]),
+                                   std::max(ids[i], ids[(i + 1) % 3]));
+            }
+        }
+        std::sort(edges.begin(), edges.end());
+        edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+        std::size_t count = 0;
+        for (const auto& [a, b] : edges) {
+            std::array<Vec3, 2> normal{};
+            int found = 0;
+            auto visit = [&](std::uint32_t t) {
+                if (after && contains(t, u) && contains(t, v)) {
+                    return;
+                }
+                const Tri ids = ids_of(t);
+                const bool has_b = ids[0] == b || ids[1] == b || ids[2] == b;
+                const bool has_a = ids[0] == a || ids[1] == a || ids[2] == a;
+                if (has_a && has_b && found < 2) {
+                    const std::array<Vec3, 3> c = after ? moved(t, u, v) : corners(t);
+                    normal[std::size_t(found++)] = normal_of(c[0], c[1], c[2]);
+                }
+            };
+            for (const std::uint32_t t : vertex_triangles_[a]) {
+                visit(t);
+            }
+            if (after && a == v) {
+                for (const std::uint32_t t : vertex_triangles_[u]) {
+                    visit(t);
+                }
+            }
+            if (found == 2 && dot(normal[0], normal[1]) < 0.0) {
+                ++count;
+            }
+        }
+        return count;
+    }
+
+    /// True when collapsing u onto v adds a fold.
+    bool adds_fold(std::uint32_t u, std::uint32_t v) const {
+        return folds(u, v, true) > folds(u, v, false);
+    }
+
     /// Cost of collapsing u onto v (max error bound of the changed triangles, with the distances
     /// of the contour pieces they take when `pieces`), or nothing when the collapse folds or
     /// degenerates a triangle.
@@ -535,6 +626,12 @@ private:
         if (moved_corners.empty()) {
             return std::nullopt;
         }
+        // A fold looks like what it is whatever the slice sections say: a collapse may not add
+        // one.
+        if (adds_fold(u, v)) {
+            return std::nullopt;
+        }
+
         for (std::size_t i = 0; i < star.size(); ++i) {
             if (own[i] == kNone) {
                 continue;
@@ -633,6 +730,11 @@ private:
                 return false;
             }
         }
+        // note: folds also depend on the triangles across u's link, which can change without
+        // u's stamp moving, so a candidate whose cost was read earlier is checked again
+        if (c.stage == Candidate::kExact && adds_fold(c.u, c.v)) {
+            return false;
+        }
         if (creates_intersection(c.u, c.v)) {
             return false;
         }
@@ -665,15 +767,18 @@ private:
         }
         for (std::size_t a = 0; a < changed.size(); ++a) {
             ++query_;  // each new triangle meets every neighbour once
-            const std::array<Vec3, 3> ta = moved(changed[a], u, v);
+            const std::array<Vec3, 3> ta = exact_moved(changed[a], u, v);
             const Tri ia = ids_after(changed[a]);
             const FilterPlane fa = filter_plane(ta);
+            if (!fa.proper && triangle_is_degenerate(ta)) {
+                return true;  // note: a zero-area triangle cannot be certified free either
+            }
             auto intersects = [&](const std::array<Vec3, 3>& tb, const Tri& ib) {
                 return !certainly_apart(ta, fa, ia, tb, ib) && triangles_intersect(ta, ia, tb, ib);
             };
             // the other new triangles
             for (std::size_t b = a + 1; b < changed.size(); ++b) {
-                if (intersects(moved(changed[b], u, v), ids_after(changed[b]))) {
+                if (intersects(exact_moved(changed[b], u, v), ids_after(changed[b]))) {
                     return true;
                 }
             }
@@ -698,7 +803,7 @@ private:
                     return;  // removed or replaced by this collapse
                 }
                 const Tri& lt = triangles_[index];
-                const std::array<Vec3, 3> tb = corners(index);
+                const std::array<Vec3, 3> tb = exact_corners(index);
                 hit = boxes_overlap(ta, tb) &&
                       intersects(tb, {global_[lt[0]], global_[lt[1]], global_[lt[2]]});
             });
@@ -742,7 +847,7 @@ private:
                 }
             }
             vertex_triangles_[v].push_back(t);
-            grid_.insert(t, after);
+            grid_.insert(t, exact_corners(t));
             moved_ids.push_back(t);
         }
         // Each piece stays on its triangle if that is no farther than before, else moves to the
@@ -779,6 +884,7 @@ private:
     }
 
     const std::vector<Vec3>& positions_;
+    const std::vector<Vec3>& exact_;  ///< positions for the predicates
     const std::vector<ContourPiece>* pieces_;
     const SliceErrorMeter& meter_;
     const CollapseOptions& options_;
@@ -798,6 +904,7 @@ private:
     std::vector<std::vector<Attached>> triangle_pieces_;
     mutable std::vector<std::array<Vec3, 3>> moved_corners_;  ///< scratch of cost()
     mutable std::vector<std::uint32_t> moved_index_;          ///< scratch of cost()
+    mutable std::vector<std::pair<std::uint32_t, std::uint32_t>> fold_edges_;  ///< of folds()
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     /// Candidates whose cost is read: more than the floor each.
@@ -812,6 +919,18 @@ private:
 };
 
 }  // namespace
+
+std::vector<Vec3> grid_frame_positions(const std::vector<Vec3>& positions,
+                                       double slice_spacing_px,
+                                       double grid_step) {
+    std::vector<Vec3> out = positions;
+    if (grid_step > 0.0) {
+        for (Vec3& p : out) {
+            p.z = std::nearbyint(p.z / slice_spacing_px / grid_step) * grid_step;
+        }
+    }
+    return out;
+}
 
 CollapseResult collapse_edges(const CollapseProblem& problem,
                               const SliceErrorMeter& meter,

@@ -31,6 +31,10 @@ struct CollapseOptions {
 /// `positions`, which collapses never change (half-edge collapses create no vertex).
 struct CollapseProblem {
     const std::vector<Vec3>* positions = nullptr;
+    /// The same vertices in the frame where the surface is exact (`grid_frame_positions`: the
+    /// grid coordinates files store, where a vertex lies exactly on an edge or plane if it does
+    /// at all); degeneracy and intersection are decided there. Null: `positions`.
+    const std::vector<Vec3>* exact_positions = nullptr;
     std::vector<std::array<std::uint32_t, 3>> triangles;  ///< the piece, outward CCW
     std::vector<double> triangle_error_px;  ///< current error bound of each triangle (px)
     /// Vertices that must stay where they are with their edges to other locked vertices: the
@@ -47,6 +51,16 @@ struct CollapseProblem {
     /// the nearest of the changed ones, and costs at least their distance (piece_distance_px).
     std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_triangles;
 };
+
+/// `positions` (slice space: x, y in px, z = slice index times `slice_spacing_px`) in the grid
+/// frame of step `grid_step` (quantize/snap_to_grid.h): x and y unchanged, z the slice index
+/// rounded to the step, so that a snapped surface's coordinates are exact (small dyadic numbers)
+/// and predicates there are the truth about what a file stores, where z * spacing is rounded.
+/// Degeneracy and intersection are invariant under the affine map back to slice space, up to
+/// that rounding. `grid_step` 0 (not snapped): the positions unchanged.
+std::vector<Vec3> grid_frame_positions(const std::vector<Vec3>& positions,
+                                       double slice_spacing_px,
+                                       double grid_step);
 
 /// What `collapse_edges` did.
 struct CollapseResult {
@@ -70,11 +84,14 @@ struct CollapseResult {
 /// Preserved: the locked vertices and every edge between two of them (so the piece still fits
 /// any neighbour that kept the same boundary), manifoldness and orientation (link condition,
 /// no vertex left with fewer than 3 edges), topology (genus, components), no triangle turned by
-/// more than allowed, and embedding: no new triangle intersects a triangle of the piece or an
-/// obstacle (exact predicates). Not preserved: volume, normals, vertex count.
+/// more than allowed, no fold added (an edge whose triangles' normals point apart, a crease over
+/// 90 degrees: the slice sections do not see it, a viewer does; a collapse may keep or remove
+/// folds, never add one), no degenerate (collinear) triangle, and embedding: no new triangle
+/// intersects a triangle of the piece or an obstacle (exact predicates, on `exact_positions`).
+/// Not preserved: volume, normals, vertex count.
 /// Deterministic: ties are broken by vertex ids.
-/// \throw Error{InvalidInput} when a triangle refers to a vertex outside `positions` or an edge is
-///        used by more than two triangles of the piece.
+/// \throw Error{InvalidInput} when a triangle refers to a vertex outside `positions` or an edge
+///        is used by more than two triangles of the piece.
 CollapseResult collapse_edges(const CollapseProblem& problem,
                               const SliceErrorMeter& meter,
                               const CollapseOptions& options);

@@ -144,6 +144,8 @@ public:
                const MultiresOptions& options)
         : meter_(meter), options_(options) {
         mesh_.positions = surface.positions;
+        exact_ =
+            grid_frame_positions(surface.positions, meter.slice_spacing_px(), options.grid_step);
         mesh_.full_resolution_error_px = base_error_px;
         for (const Tri& t : surface.triangles) {
             for (const std::uint32_t v : t) {
@@ -158,7 +160,7 @@ public:
         std::vector<Tri> all = surface.triangles;
         double edge_sum = 0.0;
         for (const Tri& t : all) {
-            edge_sum += norm(mesh_.positions[t[0]] - mesh_.positions[t[1]]);
+            edge_sum += norm(exact_[t[0]] - exact_[t[1]]);
         }
         grid_cell_ = std::max(1e-3, 4.0 * edge_sum / double(std::max<std::size_t>(all.size(), 1)));
         const std::vector<PieceAttachment> attached = attach_pieces(all);
@@ -198,9 +200,8 @@ public:
                     continue;
                 }
                 for (const Tri& t : attempt.created) {
-                    level_grid.insert(
-                        std::uint32_t(level_created.size()),
-                        {mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]});
+                    level_grid.insert(std::uint32_t(level_created.size()),
+                                      {exact_[t[0]], exact_[t[1]], exact_[t[2]]});
                     level_created.push_back(t);
                 }
                 record_group(level, groups[i], attempt, next);
@@ -399,7 +400,7 @@ private:
             c.triangles.push_back(local);
         }
         for (const std::uint32_t v : c.vertices) {
-            box.add(mesh_.positions[v]);
+            box.add(exact_[v]);
         }
         c.bounds = bounding_sphere(mesh_.positions, c.vertices);
         mesh_.clusters.push_back(std::move(c));
@@ -535,6 +536,7 @@ private:
         Attempt attempt;
         CollapseProblem problem;
         problem.positions = &mesh_.positions;
+        problem.exact_positions = &exact_;
         Box box;
         for (const std::uint32_t c : members) {
             const double e = cluster_error(c);
@@ -547,7 +549,7 @@ private:
                 problem.triangles.push_back(t);
                 problem.triangle_error_px.push_back(e);
                 for (const std::uint32_t v : t) {
-                    box.add(mesh_.positions[v]);
+                    box.add(exact_[v]);
                 }
             }
         }
@@ -588,7 +590,7 @@ private:
             for (const Tri& t : global_triangles(c)) {
                 Box tb;
                 for (const std::uint32_t v : t) {
-                    tb.add(mesh_.positions[v]);
+                    tb.add(exact_[v]);
                 }
                 if (tb.overlaps(box)) {
                     problem.obstacles.push_back(t);
@@ -624,8 +626,7 @@ private:
                    const detail::TriangleGrid& grid,
                    const std::vector<Tri>& others) const {
         auto corners = [&](const Tri& t) {
-            return std::array<Vec3, 3>{mesh_.positions[t[0]], mesh_.positions[t[1]],
-                                       mesh_.positions[t[2]]};
+            return std::array<Vec3, 3>{exact_[t[0]], exact_[t[1]], exact_[t[2]]};
         };
         for (const Tri& t : attempt.created) {
             const std::array<Vec3, 3> a = corners(t);
@@ -698,7 +699,9 @@ private:
     const SliceErrorMeter& meter_;
     const MultiresOptions& options_;
     MultiresMesh mesh_;
-    std::vector<Box> boxes_;            ///< per cluster
+    /// mesh_.positions in the grid frame (grid_frame_positions): where intersections are decided.
+    std::vector<Vec3> exact_;
+    std::vector<Box> boxes_;            ///< per cluster, in the grid frame
     std::vector<ContourPiece> pieces_;  ///< the label's contour pieces (attach_pieces)
     /// Per cluster: (triangle index in the cluster, piece) for the pieces attached to it.
     std::vector<std::vector<PieceAttachment>> cluster_pieces_;

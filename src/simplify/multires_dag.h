@@ -109,6 +109,11 @@ struct MultiresOptions {
     double max_error_px = std::numeric_limits<double>::infinity();
     double min_reduction = 0.15;  ///< least fraction of triangles a group must lose
     std::uint32_t max_levels = 24;
+    /// The surface's grid step (quantize/snap_to_grid.h; 0: not snapped). Intersections and
+    /// degenerate triangles are then ruled out in the grid frame (grid_frame_positions), where
+    /// the coordinates files store are exact; in slice space, z = slice * spacing is rounded, and
+    /// a vertex lying exactly on another triangle's edge there can look a hair apart.
+    double grid_step = 0.0;
     unsigned threads = 0;  ///< worker threads, 0 = all cores; output identical for any count
     ProgressFn progress;   ///< called per level ("simplify levels")
 };

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <deque>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <numeric>
@@ -840,26 +841,85 @@ bool LabelSurface::resolve_corner(
         }
         return true;
     }
-    // Mixed: find an inner edge (v, u) with u a Steiner point, nearest the low side.
+    // Mixed: split at an inner edge (v, u) with u a Steiner point. Of those, the one where the
+    // wedge's faces best follow the interpolation height t = D_k / (D_k - D_k+1): faces before
+    // it use v at z_k, faces after it v at z_k+1; each face is charged its area times the mean
+    // squared difference between its height and t at four interior points. (The first such edge
+    // from the low side, the old choice, fanned v at z_k+1 over the low half of long strips:
+    // faces tilted backwards, a 1 px V-groove along the medial line.)
     const bool low_first = cw_class == kLow;
     if (!low_first) {
         std::reverse(wedge.begin(), wedge.end());
     }
     // wedge[0] touches the low boundary edge. Inner edge j lies between wedge[j] and
     // wedge[j + 1]; its far vertex is shared by both.
-    std::size_t split = wedge.size();
+    std::vector<std::size_t> candidates;
     for (std::size_t j = 0; j + 1 < wedge.size(); ++j) {
         const FaceHandle a = wedge[j];
         const FaceHandle b = wedge[j + 1];
         for (int m = 0; m < 3; ++m) {
             const VertexHandle u = a->vertex(m);
             if (u != v && b->has_vertex(u) && u->info().steiner >= 0) {
-                split = j;
+                candidates.push_back(j);
                 break;
             }
         }
-        if (split != wedge.size()) {
-            break;
+    }
+    std::size_t split = wedge.size();
+    if (candidates.size() == 1) {
+        split = candidates[0];
+    } else if (!candidates.empty()) {
+        // Cost of each face with v low and with v high.
+        std::vector<std::array<double, 2>> cost(wedge.size());
+        for (std::size_t j = 0; j < wedge.size(); ++j) {
+            const FaceHandle w = wedge[j];
+            const int vi = w->index(v);
+            std::array<Vec2, 3> xy;
+            std::array<double, 3> h{};
+            for (int m = 0; m < 3; ++m) {
+                const VertexHandle u = w->vertex(m);
+                xy[std::size_t(m)] = to_vec(u->point());
+                const VertexInfo& info = u->info();
+                h[std::size_t(m)] = info.steiner >= 0 ? steiner_t_[std::size_t(info.steiner)]
+                                    : info.upper < 0  ? 0.0
+                                    : info.lower < 0  ? 1.0
+                                                      : 0.5;  // another crossing: unknown
+            }
+            const double area = 0.5 * std::abs(cross(xy[1] - xy[0], xy[2] - xy[0]));
+            for (int level = 0; level < 2; ++level) {
+                h[std::size_t(vi)] = level;
+                double sum = 0.0;
+                for (int sample = 0; sample < 4; ++sample) {
+                    // the centroid and the points (4, 1, 1) / 6 towards each corner
+                    std::array<double, 3> b{1.0 / 3, 1.0 / 3, 1.0 / 3};
+                    if (sample < 3) {
+                        b = {1.0 / 6, 1.0 / 6, 1.0 / 6};
+                        b[std::size_t(sample)] = 4.0 / 6;
+                    }
+                    const Vec2 q = b[0] * xy[0] + b[1] * xy[1] + b[2] * xy[2];
+                    const double face_t = b[0] * h[0] + b[1] * h[1] + b[2] * h[2];
+                    const double diff = face_t - height_t(to_point(q), k);
+                    sum += diff * diff;
+                }
+                cost[j][std::size_t(level)] = area * sum / 4.0;
+            }
+        }
+        // prefix sums: low cost of wedge[0..j], high cost of wedge[j+1..]
+        std::vector<double> low(wedge.size() + 1, 0.0);
+        std::vector<double> high(wedge.size() + 1, 0.0);
+        for (std::size_t j = 0; j < wedge.size(); ++j) {
+            low[j + 1] = low[j] + cost[j][0];
+        }
+        for (std::size_t j = wedge.size(); j-- > 0;) {
+            high[j] = high[j + 1] + cost[j][1];
+        }
+        double best = std::numeric_limits<double>::infinity();
+        for (const std::size_t j : candidates) {
+            const double c = low[j + 1] + high[j + 1];
+            if (c < best) {
+                best = c;
+                split = j;
+            }
         }
     }
     if (split == wedge.size()) {
@@ -871,6 +931,60 @@ bool LabelSurface::resolve_corner(
         wedge[j]->info().corner[std::size_t(wedge[j]->index(v))] = j <= split ? kLow : kHigh;
     }
     return true;
+}
+
+/// Which points of a medial curve become Steiner points: those of its Douglas-Peucker
+/// simplification (options.medial_tolerance_px), plus one at least every medial_max_step_px of
+/// arc length, none closer than medial_step_px of arc length to the previous kept one.
+std::vector<bool> thin_medial_curve(const MedialCurve& curve, const TriangulateOptions& options) {
+    const std::size_t n = curve.points.size();
+    std::vector<bool> corner(n, options.medial_tolerance_px <= 0.0);
+    if (n > 0) {
+        corner[0] = true;
+        corner[n - 1] = true;
+    }
+    std::vector<std::pair<std::size_t, std::size_t>> stack;
+    if (n > 2 && options.medial_tolerance_px > 0.0) {
+        stack.emplace_back(0, n - 1);
+    }
+    while (!stack.empty()) {
+        const auto [a, b] = stack.back();
+        stack.pop_back();
+        const Vec2 pa = curve.points[a].position;
+        const Vec2 dir = curve.points[b].position - pa;
+        const double length = norm(dir);
+        double worst = -1.0;
+        std::size_t at = a;
+        for (std::size_t i = a + 1; i < b; ++i) {
+            const Vec2 q = curve.points[i].position - pa;
+            const double d = length > 0.0 ? std::abs(cross(dir, q)) / length : norm(q);
+            if (d > worst) {
+                worst = d;
+                at = i;
+            }
+        }
+        if (worst > options.medial_tolerance_px) {
+            corner[at] = true;
+            if (at - a > 1) {
+                stack.emplace_back(a, at);
+            }
+            if (b - at > 1) {
+                stack.emplace_back(at, b);
+            }
+        }
+    }
+    std::vector<bool> keep(n, false);
+    double since = options.medial_step_px;  // arc length since the last kept point
+    for (std::size_t i = 0; i < n; ++i) {
+        if (i > 0) {
+            since += norm(curve.points[i].position - curve.points[i - 1].position);
+        }
+        if (since >= options.medial_step_px && (corner[i] || since >= options.medial_max_step_px)) {
+            keep[i] = true;
+            since = 0.0;
+        }
+    }
+    return keep;
 }
 
 void LabelSurface::triangulate_slab(std::uint32_t k) {
@@ -897,16 +1011,11 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
             if (curve.label != label_) {
                 continue;
             }
-            double run = options_.medial_step_px;
+            const std::vector<bool> keep = thin_medial_curve(curve, options_);
             for (std::size_t i = 0; i < curve.points.size(); ++i) {
-                if (i > 0) {
-                    const Vec2 d = curve.points[i].position - curve.points[i - 1].position;
-                    run += std::sqrt(dot(d, d));
-                }
-                if (run < options_.medial_step_px) {
+                if (!keep[i]) {
                     continue;
                 }
-                run = 0.0;
                 const Point p = to_point(curve.points[i].position);
                 Cdt::Locate_type type;
                 int li = 0;

@@ -19,6 +19,13 @@ struct TriangulateOptions {
     /// Medial-axis points closer than this along their curve are thinned before they become
     /// surface vertices (px).
     double medial_step_px = 1.0;
+    /// Medial points are also thinned where their curve is straight: kept are the points of a
+    /// Douglas-Peucker simplification of each curve with this tolerance (px), plus one at least
+    /// every `medial_max_step_px` along it; 0 keeps every point (one per `medial_step_px`).
+    /// Along parallel strips every pixel's medial point made a fan of slivers from each contour
+    /// vertex.
+    double medial_tolerance_px = 0.25;
+    double medial_max_step_px = 6.0;
     /// Rounds of local refinement (Steiner points) that remove flat chords and split
     /// correspondence jumps before a slab is declared failed.
     unsigned refine_rounds = 12;

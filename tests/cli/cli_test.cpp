@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -157,6 +158,32 @@ TEST(Cli, MeshFormatOption) {
     EXPECT_TRUE(fs::exists(out / "meshes" / "sphere.stl"));
     const CliRun bad = run_cli({"build", "-o", out.string(), "--mesh-format", "vrml"});
     EXPECT_EQ(bad.exit_code, 2);
+}
+
+/// The JSON chunk of a .glb file.
+nlohmann::json glb_json(const fs::path& path) {
+    const std::string bytes = slurp(path);
+    std::uint32_t length = 0;
+    std::memcpy(&length, bytes.data() + 12, 4);
+    return nlohmann::json::parse(bytes.substr(20, length));
+}
+
+TEST(Cli, SceneIsDracoCompressedUnlessAskedNotTo) {
+    const fs::path out = test::fresh_temp_dir("cli_scene_draco");
+    ASSERT_EQ(run_cli({"build", "--phantom", "sphere", "-o", (out / "a").string()}).exit_code, 0);
+    ASSERT_EQ(run_cli({"build", "--phantom", "sphere", "-o", (out / "b").string(),
+                       "--scene-uncompressed"})
+                  .exit_code,
+              0);
+    const nlohmann::json draco = glb_json(out / "a" / "scene.glb");
+    const nlohmann::json plain = glb_json(out / "b" / "scene.glb");
+    EXPECT_EQ(draco.value("extensionsRequired", nlohmann::json::array()),
+              nlohmann::json::array({"KHR_draco_mesh_compression"}));
+    EXPECT_TRUE(
+        draco["meshes"][0]["primitives"][0]["extensions"].contains("KHR_draco_mesh_compression"));
+    EXPECT_FALSE(plain.contains("extensionsRequired"));
+    EXPECT_TRUE(plain["accessors"][0].contains("bufferView"));
+    EXPECT_LT(fs::file_size(out / "a" / "scene.glb"), fs::file_size(out / "b" / "scene.glb") / 3);
 }
 
 TEST(Cli, ExtractWritesOneResolutionWithinTheBound) {

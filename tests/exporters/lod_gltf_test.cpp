@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "exporters/detail/meshopt_scene.h"
 #include "exporters/detail/meshopt_streams.h"
 #include "mesh/mesh_checks.h"
 #include "phantom/catalogue.h"
@@ -409,6 +410,88 @@ TEST(LodGltf, RejectsBadInputAndKeepsOldFiles) {
     EXPECT_FALSE(fs::exists(dir / "lods.gltf"));
 }
 
+/// The single-rate scene with meshopt (scene_gltf's meshopt option): every object's triangles,
+/// decoded here, are the input's with each position on the node's 16-bit grid (within half a
+/// step per axis), and the decoded mesh is closed with the input's genera.
+TEST(MeshoptScene, HoldsEveryTriangleOnItsGrid) {
+    const Model& m = plain_torus();
+    SceneObject object;
+    object.name = "torus";
+    object.label = 1;
+    object.srgb = {0.8, 0.5, 0.25};
+    object.mesh = m.result.surfaces[0].mesh;
+    for (Vec3& p : object.mesh.positions) {
+        p = Vec3{0.7 * p.x - 120.5, 0.7 * p.y + 33.25, 0.7 * p.z + 410.0};  // like LPS mm
+    }
+    const fs::path dir = temp_dir("meshopt_scene");
+    detail::write_meshopt_scene(dir / "scene.glb", {object}, info());
+    const Glb g = read_glb(dir / "scene.glb");
+    EXPECT_EQ(g.json["extensionsRequired"],
+              Json({"EXT_meshopt_compression", "KHR_mesh_quantization"}));
+    const Json& node = g.json["nodes"][1];
+    EXPECT_EQ(node["name"], "torus");
+    const double step = node["extras"]["quantization_step_mm"].get<double>();
+    const Json& matrix = node["matrix"];
+    EXPECT_EQ(matrix[0].get<double>(), step);
+    const std::array<double, 3> origin{matrix[12].get<double>(), matrix[13].get<double>(),
+                                       matrix[14].get<double>()};
+    // The input quantized here, independently of the writer.
+    using Q = std::array<long, 3>;
+    std::vector<Q> expected_q;
+    for (const Vec3& p : object.mesh.positions) {
+        Q q{};
+        for (int k = 0; k < 3; ++k) {
+            q[k] = std::lround((p[k] - origin[k]) / step);
+            EXPECT_LE(std::abs(q[k] * step + origin[k] - p[k]), 0.5 * step * (1 + 1e-9));
+        }
+        expected_q.push_back(q);
+    }
+    // Decoded through the meshopt decoders.
+    const Json& primitive = g.json["meshes"][0]["primitives"][0];
+    const Json& pa = g.json["accessors"][primitive["attributes"]["POSITION"].get<int>()];
+    const Json& ia = g.json["accessors"][primitive["indices"].get<int>()];
+    const auto ext = [&](const Json& a) {
+        return g.json["bufferViews"][a["bufferView"].get<int>()]["extensions"]
+                     ["EXT_meshopt_compression"];
+    };
+    const Json pe = ext(pa);
+    const Json ie = ext(ia);
+    EXPECT_EQ(pa["componentType"], 5123);
+    const auto raw = detail::decode_meshopt_vertices(
+        g.bin.substr(pe["byteOffset"].get<std::size_t>(), pe["byteLength"].get<std::size_t>()),
+        pe["count"].get<std::uint32_t>(), pe["byteStride"].get<std::uint32_t>());
+    std::vector<Q> decoded_q;
+    TriMesh decoded;
+    for (std::uint32_t i = 0; i < pe["count"].get<std::uint32_t>(); ++i) {
+        std::array<std::uint16_t, 3> q{};
+        std::memcpy(q.data(), &raw[8 * std::size_t(i)], 6);
+        decoded_q.push_back({q[0], q[1], q[2]});
+        decoded.positions.push_back(Vec3{double(q[0]), double(q[1]), double(q[2])});
+    }
+    const auto indices = detail::decode_meshopt_indices(
+        g.bin.substr(ie["byteOffset"].get<std::size_t>(), ie["byteLength"].get<std::size_t>()),
+        ia["count"].get<std::uint32_t>());
+    for (std::size_t t = 0; t + 2 < indices.size(); t += 3) {
+        decoded.triangles.push_back({indices[t], indices[t + 1], indices[t + 2]});
+    }
+    const auto canonical = [](const std::vector<Q>& q, const auto& triangles) {
+        std::vector<std::array<Q, 3>> out;
+        for (const auto& t : triangles) {
+            std::array<Q, 3> c{q[t[0]], q[t[1]], q[t[2]]};
+            std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());
+            out.push_back(c);
+        }
+        std::sort(out.begin(), out.end());
+        return out;
+    };
+    EXPECT_EQ(canonical(decoded_q, decoded.triangles),
+              canonical(expected_q, object.mesh.triangles));
+    const MeshReport report = check_mesh(decoded);
+    EXPECT_TRUE(is_closed_manifold(report));
+    EXPECT_EQ(test::sorted_genera(report), test::sorted_genera(check_mesh(object.mesh)));
+    EXPECT_THROW(detail::write_meshopt_scene(dir / "scene.gltf", {object}, info()), Error);
+}
+
 /// Files for the Khronos validator and the clients (CTest gltf_validator_lods) when
 /// STRATA_GLTF_SAMPLE_DIR is set.
 TEST(LodGltfSamples, WritesValidatorSamples) {
@@ -422,6 +505,12 @@ TEST(LodGltfSamples, WritesValidatorSamples) {
     write_lod_gltf(fs::path(dir) / "lods.glb", objects_of(m), m.frame, info(), options);
     options.compression = LodCompression::Meshopt;
     write_lod_gltf(fs::path(dir) / "lods_meshopt.glb", objects_of(m), m.frame, info(), options);
+    SceneObject object;
+    object.name = "torus";
+    object.label = 1;
+    object.srgb = {0.8, 0.5, 0.25};
+    object.mesh = m.result.surfaces[0].mesh;
+    detail::write_meshopt_scene(fs::path(dir) / "scene_meshopt.glb", {object}, info());
 }
 
 }  // namespace

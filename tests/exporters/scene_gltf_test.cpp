@@ -12,12 +12,15 @@
 #include <string>
 #include <vector>
 
+#include <draco/compression/decode.h>
+#include <draco/mesh/mesh.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
 #include "core/error.h"
 #include "mesh/mesh_checks.h"
+#include "mesh/shading_normals.h"
 #include "support/mesh_shapes.h"
 #include "support/test_paths.h"
 
@@ -533,6 +536,98 @@ TEST(SceneGltf, GltfKeepsOldFilesWhenBinCannotBeWritten) {
     EXPECT_TRUE(fs::is_directory(dir / "scene.bin" / "keep"));
 }
 
+TEST(SceneGltf, DracoPrimitivesDecodeToTheTrianglesAndShadingNormals) {
+    const std::vector<SceneObject> objects = two_objects();
+    const fs::path dir = test::fresh_temp_dir("scene_gltf_draco");
+    SceneGltfOptions options;
+    options.draco = true;
+    write_scene_gltf(dir / "scene.glb", objects, sample_info(), options);
+    // parsed here: tinygltf reads no Draco
+    const std::string bytes = read_bytes(dir / "scene.glb");
+    std::uint32_t json_length = 0;
+    std::uint32_t bin_length = 0;
+    ASSERT_GT(bytes.size(), 28u);
+    std::memcpy(&json_length, bytes.data() + 12, 4);
+    std::memcpy(&bin_length, bytes.data() + 20 + json_length, 4);
+    const nlohmann::json json = nlohmann::json::parse(bytes.substr(20, json_length));
+    const std::string bin = bytes.substr(28 + json_length, bin_length);
+    EXPECT_EQ(json["extensionsRequired"], nlohmann::json::array({"KHR_draco_mesh_compression"}));
+    ASSERT_EQ(json["meshes"].size(), 2u);
+    for (std::size_t o = 0; o < 2; ++o) {
+        const TriMesh& mesh = objects[o].mesh;
+        const std::vector<Vec3> expected_normals = shading_normals(mesh);
+        const nlohmann::json& primitive = json["meshes"][o]["primitives"][0];
+        const nlohmann::json& ext = primitive["extensions"]["KHR_draco_mesh_compression"];
+        const nlohmann::json& view = json["bufferViews"][ext["bufferView"].get<std::size_t>()];
+        for (const char* attribute : {"POSITION", "NORMAL"}) {
+            EXPECT_FALSE(
+                json["accessors"][primitive["attributes"][attribute].get<std::size_t>()].contains(
+                    "bufferView"));
+        }
+        draco::DecoderBuffer in;
+        in.Init(bin.data() + view.value("byteOffset", std::size_t{0}),
+                view["byteLength"].get<std::size_t>());
+        draco::Decoder decoder;
+        auto decoded = decoder.DecodeMeshFromBuffer(&in);
+        ASSERT_TRUE(decoded.ok()) << "object " << o;
+        const draco::Mesh& back = *decoded.value();
+        const draco::PointAttribute* position =
+            back.GetAttributeByUniqueId(ext["attributes"]["POSITION"].get<std::uint32_t>());
+        const draco::PointAttribute* normal =
+            back.GetAttributeByUniqueId(ext["attributes"]["NORMAL"].get<std::uint32_t>());
+        ASSERT_EQ(back.num_faces(), mesh.triangles.size());
+        EXPECT_EQ(
+            json["accessors"][primitive["attributes"]["POSITION"].get<std::size_t>()]["count"],
+            back.num_points());
+        EXPECT_EQ(json["accessors"][primitive["indices"].get<std::size_t>()]["count"],
+                  3 * std::size_t(back.num_faces()));
+        ASSERT_NE(position, nullptr);
+        ASSERT_NE(normal, nullptr);
+        // every decoded point near exactly one original vertex (16 bits over < 80 mm), and its
+        // normal near that vertex's shading normal (12-bit octahedral)
+        std::vector<std::uint32_t> original(back.num_points());
+        for (draco::PointIndex i(0); i < back.num_points(); ++i) {
+            float p[3] = {};
+            float n[3] = {};
+            position->GetMappedValue(i, p);
+            normal->GetMappedValue(i, n);
+            std::size_t best = 0;
+            double best_d = 1e300;
+            for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+                const double d = norm(mesh.positions[v] - Vec3{p[0], p[1], p[2]});
+                if (d < best_d) {
+                    best_d = d;
+                    best = v;
+                }
+            }
+            EXPECT_LT(best_d, 0.01) << "object " << o << " point " << i.value();
+            original[i.value()] = std::uint32_t(best);
+            EXPECT_GT(dot(expected_normals[best], Vec3{n[0], n[1], n[2]}), std::cos(0.01))
+                << "object " << o << " point " << i.value();
+        }
+        // the same triangles, same orientation
+        std::vector<std::array<std::uint32_t, 3>> expected;
+        std::vector<std::array<std::uint32_t, 3>> got;
+        auto canonical = [](std::array<std::uint32_t, 3> t) {
+            while (t[0] != std::min({t[0], t[1], t[2]})) {
+                t = {t[1], t[2], t[0]};
+            }
+            return t;
+        };
+        for (const auto& t : mesh.triangles) {
+            expected.push_back(canonical(t));
+        }
+        for (draco::FaceIndex f(0); f < back.num_faces(); ++f) {
+            const auto& face = back.face(f);
+            got.push_back(canonical(
+                {original[face[0].value()], original[face[1].value()], original[face[2].value()]}));
+        }
+        std::sort(expected.begin(), expected.end());
+        std::sort(got.begin(), got.end());
+        EXPECT_EQ(got, expected) << "object " << o;
+    }
+}
+
 /// Files for the Khronos validator (tests/node/validate_gltf.mjs, CTest gltf_validator_scene):
 /// written to $STRATA_GLTF_SAMPLE_DIR when set, else to a temp folder and only read back.
 TEST(SceneGltfSamples, WritesValidatorSamples) {
@@ -556,6 +651,10 @@ TEST(SceneGltfSamples, WritesValidatorSamples) {
         const tinygltf::Model model = load(dir / name);
         EXPECT_EQ(model.meshes.size(), 3u) << name;
     }
+    SceneGltfOptions draco;
+    draco.draco = true;
+    write_scene_gltf(dir / "scene_draco.glb", objects, sample_info(), draco);
+    EXPECT_TRUE(fs::exists(dir / "scene_draco.glb"));
     EXPECT_TRUE(fs::exists(dir / "scene.bin"));
 }
 

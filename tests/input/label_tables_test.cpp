@@ -96,10 +96,10 @@ TEST(ColorTable, ReadsTotalSegmentatorClassMap) {
     }
 }
 
-TEST(ColorTable, MissingFileIsIoError) {
+TEST(ColorTable, MissingFileIsInvalidInputLikeAMissingInput) {
     EXPECT_TRUE(throws_error(
         [] { detail::read_color_table(test::fresh_temp_dir("color_table_missing") / "none.ctbl"); },
-        ErrorCode::Io, "none.ctbl: cannot open colour table"));
+        ErrorCode::InvalidInput, "none.ctbl: no such colour table file"));
 }
 
 TEST(ColorTable, MalformedSlicerLineNamesFileAndLine) {

@@ -29,17 +29,28 @@ function gltfJson(bytes) {
 /// in files that use it, it does not decode KHR_draco_mesh_compression either, so it reports the
 /// extension as unsupported and the buffer views only our extension or Draco name (the DAG table,
 /// the chunks, the base meshes' Draco data) as maybe unused.
+/// The same for the Draco primitives of a plain scene (extension and their buffer views).
 /// Nothing else is accepted, and these only for exactly those objects.
 function allowedIssues(json) {
     const allowed = { UNSUPPORTED_EXTENSION: new Set(), UNUSED_OBJECT: new Set() };
     const used = json?.extensionsUsed ?? [];
     const progressive = used.includes(kAllowedExtension);
     used.forEach((name, i) => {
-        if (name === kAllowedExtension || (progressive && name === kDraco)) {
+        if (name === kAllowedExtension || name === kDraco) {
             allowed.UNSUPPORTED_EXTENSION.add(`/extensionsUsed/${i}`);
         }
     });
     allowLodIssues(json, allowed);
+    // Draco primitives (scene.glb by default): the validator does not decode them, so their
+    // buffer views look unused.
+    for (const mesh of json?.meshes ?? []) {
+        for (const primitive of mesh.primitives ?? []) {
+            const draco = primitive.extensions?.[kDraco];
+            if (draco !== undefined) {
+                allowed.UNUSED_OBJECT.add(`/bufferViews/${draco.bufferView}`);
+            }
+        }
+    }
     if (!progressive) {
         return allowed;
     }
@@ -69,7 +80,8 @@ function allowedIssues(json) {
 /// EXT_meshopt_compression streams (named only by the extension) as maybe unused.
 function allowLodIssues(json, allowed) {
     const used = json?.extensionsUsed ?? [];
-    if (!used.includes('MSFT_lod')) {
+    // also the meshopt scene (scene_gltf's meshopt option): the same compressed data
+    if (!used.includes('MSFT_lod') && !used.includes('EXT_meshopt_compression')) {
         return;
     }
     used.forEach((name, i) => {

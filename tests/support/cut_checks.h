@@ -40,15 +40,9 @@ inline std::vector<int> sorted_genera(const MeshReport& report) {
     return genera;
 }
 
-/// Expects `mesh`, a cut of the model of surface `i` of `r` declaring `declared_px`, to be a
-/// closed oriented manifold with the sorted component genera `genera`, positive volume and no
-/// self-intersection (exact), and within `declared_px` of the original contours by the oracle.
-/// Returns the oracle's measurement.
-inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
-                                       const Reconstruction& r,
-                                       std::size_t i,
-                                       const std::vector<int>& genera,
-                                       double declared_px) {
+/// Expects `mesh` to be a closed oriented manifold with the sorted component genera `genera`,
+/// positive volume, no self-intersection and no degenerate triangle (exact).
+inline void expect_embedded_surface(const TriMesh& mesh, const std::vector<int>& genera) {
     const MeshReport report = check_mesh(mesh);
     EXPECT_TRUE(is_closed_manifold(report))
         << (report.problems.empty() ? std::string() : report.problems.front());
@@ -59,6 +53,18 @@ inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
                                 << (hits.pairs.empty() ? 0 : hits.pairs[0].first) << " and "
                                 << (hits.pairs.empty() ? 0 : hits.pairs[0].second) << ", "
                                 << hits.degenerate_triangles.size() << " degenerate";
+}
+
+/// Expects `mesh`, a cut of the model of surface `i` of `r` declaring `declared_px`, to be a
+/// closed oriented manifold with the sorted component genera `genera`, positive volume and no
+/// self-intersection (exact), and within `declared_px` of the original contours by the oracle.
+/// Returns the oracle's measurement.
+inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
+                                       const Reconstruction& r,
+                                       std::size_t i,
+                                       const std::vector<int>& genera,
+                                       double declared_px) {
+    expect_embedded_surface(mesh, genera);
     const CutErrorReport measured =
         measure_cut_error(mesh, r.contours, r.surfaces[i].label, r.slice_spacing_px);
     EXPECT_TRUE(measured.problems.empty())

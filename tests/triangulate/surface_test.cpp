@@ -4,6 +4,8 @@
 #include <cmath>
 #include <functional>
 #include <iostream>
+#include <map>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -180,6 +182,72 @@ TEST(Surface, IdenticalForAnyThreadCount) {
             EXPECT_TRUE(one.surfaces[i].mesh.triangles == two.surfaces[i].mesh.triangles);
         }
     }
+}
+
+// Two slices whose top boundaries are offset by one pixel in opposite directions on either
+// side of x = 30 (slice 1 one pixel taller on the left, one shorter on the right): long strips
+// one pixel wide whose contours cross at one vertex. The crossing vertex's wedge used to switch
+// to z_k+1 at its first Steiner edge from the low side, so it was fanned at the upper slice to
+// the medial points of the low strip: faces tilted backwards, a V-groove (folds up to 171
+// degrees, 38 edges). Where the faces follow the interpolation height, only the caps' rims fold.
+TEST(Surface, CrossingStripsHaveNoFoldsBetweenSlices) {
+    SliceStack stack;
+    stack.width = 60;
+    stack.height = 30;
+    stack.depth = 2;
+    stack.labels.assign(std::size_t(stack.width) * stack.height * stack.depth, 0);
+    const auto fill = [&](std::uint32_t k, std::uint32_t i0, std::uint32_t i1, std::uint32_t j0,
+                          std::uint32_t j1) {
+        for (std::uint32_t j = j0; j < j1; ++j) {
+            for (std::uint32_t i = i0; i < i1; ++i) {
+                stack.labels[(std::size_t(k) * stack.height + j) * stack.width + i] = 1;
+            }
+        }
+    };
+    fill(0, 5, 55, 5, 15);
+    fill(1, 5, 30, 5, 16);
+    fill(1, 30, 55, 5, 14);
+    stack.index_to_world.linear = {{{0.78, 0, 0}, {0, 0.78, 0}, {0, 0, 5.0}}};
+    stack.label_table.push_back({1, "strips", {200, 80, 80}});
+    stack.source = "test";
+    Report report;
+    ReconstructOptions options;
+    options.simplify = false;
+    const Reconstruction result = reconstruct(stack, options, report);
+    ASSERT_EQ(result.surfaces.size(), 1u);
+    const TriMesh& mesh = result.surfaces[0].mesh;
+    ASSERT_TRUE(test::independent_problem(stack, result.surfaces[0]).empty());
+    // Face normals; faces in a slice plane (caps) are left out: their rims are real edges.
+    const auto& p = mesh.positions;
+    std::vector<Vec3> normal;
+    std::vector<bool> flat;
+    for (const auto& t : mesh.triangles) {
+        const Vec3 c = cross(p[t[1]] - p[t[0]], p[t[2]] - p[t[0]]);
+        normal.push_back((1.0 / norm(c)) * c);
+        flat.push_back(p[t[0]].z == p[t[1]].z && p[t[1]].z == p[t[2]].z);
+    }
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::size_t>> faces_of_edge;
+    for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+        for (int i = 0; i < 3; ++i) {
+            const std::uint32_t a = mesh.triangles[f][std::size_t(i)];
+            const std::uint32_t b = mesh.triangles[f][std::size_t((i + 1) % 3)];
+            faces_of_edge[{std::min(a, b), std::max(a, b)}].push_back(f);
+        }
+    }
+    std::size_t folds = 0;
+    double worst = 0.0;
+    for (const auto& [edge, faces] : faces_of_edge) {
+        ASSERT_EQ(faces.size(), 2u);
+        if (flat[faces[0]] || flat[faces[1]]) {
+            continue;
+        }
+        const Vec3 a = normal[faces[0]];
+        const Vec3 b = normal[faces[1]];
+        const double angle = std::atan2(norm(cross(a, b)), dot(a, b)) * 180.0 / std::numbers::pi;
+        worst = std::max(worst, angle);
+        folds += angle > 90.0 ? 1 : 0;
+    }
+    EXPECT_EQ(folds, 0u) << "largest dihedral angle " << worst << " degrees";
 }
 
 std::vector<std::string> catalogue_names() {

@@ -26,6 +26,17 @@ namespace strata::detail {
 // size), so memory use is bounded by the label images whatever the stored type
 inline constexpr std::size_t kChunkBytes = std::size_t(1) << 20;
 
+// Deflate (gzip, zlib) expands at most 1032:1 (RFC 1951: a 258-byte match costs at least 2 bits),
+// so a compressed stream of N bytes holds at most N * 1032 bytes of data.
+inline constexpr std::uint64_t kMaxDeflateRatio = 1032;
+
+/// What the data stream behind a header can hold, so that a header claiming more than the file
+/// can deliver is refused (or found truncated) before its labels are allocated.
+struct DataBound {
+    std::uint64_t max_bytes = UINT64_MAX;  ///< bytes the stream can deliver at most
+    bool is_exact = false;                 ///< uncompressed: max_bytes is what is there
+};
+
 /// The value of type T stored at `bytes`; `swap`: the file's byte order is not ours.
 template <typename T>
 T load(const unsigned char* bytes, bool swap) {
@@ -84,8 +95,10 @@ struct ValueScaling {
 /// values within 1e-4 of an integer are rounded (float data written through resampling code).
 class LabelDecoder {
 public:
-    /// `stack` has its size set and its labels allocated; `where` prefixes messages; `progress`
-    /// (may be empty) is called once per completed slice. Both must outlive the decoder.
+    /// `stack` has its size set; its labels grow as values arrive (never ahead of the data, so a
+    /// header claiming more than the file holds allocates no more than the file's data).
+    /// `where` prefixes messages; `progress` (may be empty) is called once per completed slice.
+    /// Both must outlive the decoder.
     LabelDecoder(ScalarType type,
                  bool swap,
                  SliceStack& stack,
@@ -98,7 +111,16 @@ public:
           scaling_(scaling),
           stack_(stack),
           where_(std::move(where)),
-          progress_(progress) {}
+          progress_(progress),
+          total_(stack.slice_size() * stack.depth) {
+        stack_.labels.clear();
+    }
+
+    /// Reserves the labels for the values `bound` can hold at most (all when that is more).
+    void reserve(const DataBound& bound) {
+        const std::uint64_t values = bound.max_bytes / scalar_bytes(type_);
+        stack_.labels.reserve(static_cast<std::size_t>(std::min<std::uint64_t>(total_, values)));
+    }
 
     /// Converts `count` stored values starting at `bytes` (count * scalar_bytes(type) bytes).
     void decode(const unsigned char* bytes, std::size_t count) {
@@ -130,10 +152,18 @@ public:
     /// `read(buffer, size)`, which returns fewer than `size` bytes only at the end of the data,
     /// and converts them in chunks of kChunkBytes. Throws Error{InvalidInput} "<where>:
     /// truncated: expected N bytes of voxel data<context>, found M" when the data end early.
+    /// `bound`: what the stream can hold; an exact bound short of the data is refused at once.
     template <typename ReadFn>
-    void decode_all(ReadFn&& read, const std::string& context = "") {
+    void decode_all(ReadFn&& read, const std::string& context = "", const DataBound& bound = {}) {
         const std::size_t value_bytes = scalar_bytes(type_);
-        const std::uint64_t expected = stack_.labels.size() * value_bytes;
+        const std::uint64_t expected = total_ * value_bytes;
+        if (bound.is_exact && bound.max_bytes < expected) {
+            throw Error(ErrorCode::InvalidInput, where_ + ": truncated: expected " +
+                                                     std::to_string(expected) +
+                                                     " bytes of voxel data" + context + ", found " +
+                                                     std::to_string(bound.max_bytes));
+        }
+        reserve(bound);
         std::vector<unsigned char> chunk(std::min<std::uint64_t>(expected, kChunkBytes));
         std::uint64_t found = 0;
         while (found < expected) {
@@ -152,13 +182,22 @@ public:
 
     /// Converts one stored value given as a number (NRRD's ascii encoding).
     void decode_value(double stored) {
+        grow(1);
         store_real(stored);
         report_progress();
     }
 
 private:
+    /// Makes room for `count` more labels (geometric growth beyond what was reserved).
+    void grow(std::size_t count) {
+        if (stack_.labels.size() < next_ + count) {
+            stack_.labels.resize(next_ + count);
+        }
+    }
+
     template <typename T>
     void decode_as(const unsigned char* bytes, std::size_t count) {
+        grow(count);
         for (std::size_t n = 0; n < count; ++n, bytes += sizeof(T)) {
             const T stored = load<T>(bytes, swap_);
             if constexpr (std::is_integral_v<T>) {
@@ -217,6 +256,7 @@ private:
     SliceStack& stack_;
     std::string where_;
     const ProgressFn& progress_;
+    std::size_t total_;
     std::size_t next_ = 0;
     std::size_t slices_reported_ = 0;
 };
