@@ -9,8 +9,9 @@
 #                   positions, lossless)
 #   gltfpack -cc    npm gltfpack (scripts/node-bench, as bench-size.sh) on the plain scene.glb:
 #                   meshopt with filters, 14-bit positions (lossy)
-#   scene.glb       strata's single-rate scene as `strata build` writes it by default, and with
-#                   --scene-meshopt (EXT_meshopt_compression, 16-bit positions per object, lossy)
+#   scene.glb       strata's single-rate scene: plain floats (--scene-uncompressed, gltfpack's
+#                   input), Draco (the default) and --scene-meshopt (EXT_meshopt_compression,
+#                   16-bit positions per object); the last two lossy
 #   lods Draco      lods.glb with --lod-levels LEVELS (default 0.5mm,2mm,8mm)
 #   lods meshopt    the same with --lod-compression meshopt
 # and prints bytes, gzip -9 bytes (meshopt data is meant to be served compressed), the triangles
@@ -83,7 +84,8 @@ for c in "${cases[@]}"; do
     fi
     dir="$work/$name"
     start=$(date +%s.%N)
-    "$strata" build "${input[@]}" -o "$dir/draco" --lod-levels "$levels" --quiet
+    "$strata" build "${input[@]}" -o "$dir/draco" --lod-levels "$levels" --scene-uncompressed \
+        --quiet
     "$strata" build "${input[@]}" -o "$dir/meshopt" --lod-levels "$levels" \
         --lod-compression meshopt --quiet
     "$strata" build "${input[@]}" -o "$dir/single_draco" --lod-levels 1 --quiet
@@ -95,7 +97,8 @@ for c in "${cases[@]}"; do
           "single Draco|$dir/single_draco/lods.glb"
           "single meshopt|$dir/single_meshopt/lods.glb"
           "gltfpack -cc|$dir/gltfpack_cc.glb"
-          "scene.glb (default)|$dir/draco/scene.glb"
+          "scene.glb plain|$dir/draco/scene.glb"
+          "scene.glb Draco|$dir/single_draco/scene.glb"
           "scene.glb meshopt|$dir/single_meshopt/scene.glb"
           "lods.glb Draco|$dir/draco/lods.glb"
           "lods.glb meshopt|$dir/meshopt/lods.glb")

@@ -6,7 +6,7 @@
 set -euo pipefail
 
 apt_packages=(
-    g++ cmake make pkg-config git
+    g++ cmake make pkg-config git ccache
     libopenimageio-dev openimageio-tools libopencv-core-dev  # image stacks (see PACKAGES.md)
     zlib1g-dev                                               # NIfTI .nii.gz, NRRD gzip
     libdcmtk-dev                                             # DICOM RTSTRUCT (DCMTK dcmdata)

@@ -44,6 +44,10 @@ else
     flags=(-DCMAKE_BUILD_TYPE=Release)
     ctest_args=()
 fi
-cmake -S . -B "$dir" -DSTRATA_BUILD_TESTS=ON -DSTRATA_WERROR=ON "${flags[@]}" >/dev/null
+# ccache (installed by install-deps) keeps compiled objects between runs and checkouts; paths are
+# hashed relative to the checkout, so another clone of the same sources reuses them
+export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
+cmake -S . -B "$dir" -DSTRATA_BUILD_TESTS=ON -DSTRATA_WERROR=ON -DCMAKE_CXX_COMPILER_LAUNCHER=ccache \
+    "${flags[@]}" >/dev/null
 cmake --build "$dir" -j"$jobs"
 ctest --test-dir "$dir" --output-on-failure -j"$jobs" "${ctest_args[@]}"

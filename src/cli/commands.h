@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/types.h"
+#include "simplify/multires_dag.h"
 
 namespace strata::cli {
 
@@ -27,7 +28,8 @@ struct BuildOptions {
     double tolerance_px = 0.5;             ///< contour simplification tolerance, pixels
     unsigned threads = 0;                  ///< worker threads, 0 = all cores
     std::string mesh_format = "ply";       ///< per-object mesh files: ply, obj or stl
-    std::size_t cluster_triangles = 2048;  ///< target triangles per multiresolution cluster
+    /// target triangles per multiresolution cluster (MultiresOptions' default, measured there)
+    std::size_t cluster_triangles = MultiresOptions{}.cluster_triangles;
     /// The progressive scene OUTPUT/model.<format>: "glb" (one file) or "gltf" (JSON, base
     /// buffer and one buffer file per level, for HTTP range requests).
     std::string model_format = "glb";

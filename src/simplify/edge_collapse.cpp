@@ -587,6 +587,11 @@ private:
         return count;
     }
 
+    /// True when collapsing u onto v adds a fold.
+    bool adds_fold(std::uint32_t u, std::uint32_t v) const {
+        return folds(u, v, true) > folds(u, v, false);
+    }
+
     /// Cost of collapsing u onto v (max error bound of the changed triangles, with the distances
     /// of the contour pieces they take when `pieces`), or nothing when the collapse folds or
     /// degenerates a triangle.
@@ -623,7 +628,7 @@ private:
         }
         // A fold looks like what it is whatever the slice sections say: a collapse may not add
         // one.
-        if (folds(u, v, true) > folds(u, v, false)) {
+        if (adds_fold(u, v)) {
             return std::nullopt;
         }
 
@@ -724,6 +729,11 @@ private:
             if (*exact > options_.max_error_px) {
                 return false;
             }
+        }
+        // note: folds also depend on the triangles across u's link, which can change without
+        // u's stamp moving, so a candidate whose cost was read earlier is checked again
+        if (c.stage == Candidate::kExact && adds_fold(c.u, c.v)) {
+            return false;
         }
         if (creates_intersection(c.u, c.v)) {
             return false;

@@ -83,9 +83,11 @@ struct MultiresMesh {
 
 /// Options of `build_multires_mesh`.
 struct MultiresOptions {
-    /// Target triangles per cluster. 2048: the size benchmark (scripts/bench-size.sh) measured
-    /// 11-16 % fewer bytes and a 25-38 % smaller base than 1024, chunks of about 7 kB.
-    std::size_t cluster_triangles = 2048;
+    /// Target triangles per cluster. 4096: the size benchmark (scripts/bench-size.sh, progressive
+    /// format version 2, one Draco chunk per group) measured 3-5 % fewer bytes than 2048 on the
+    /// torso and TotalSegmentator (torso 1.55 -> 1.47x single-rate Draco at keep 0.2), chunks of
+    /// about 5 kB on average (level-0 chunks up to about 20 kB: a few ms at 20 Mbit/s).
+    std::size_t cluster_triangles = 4096;
     std::size_t group_clusters = 4;  ///< clusters simplified together (a power of two)
     /// Levels are added until the coarsest is one cluster of at most this many triangles (or no
     /// group can shrink any more): the base mesh every viewer shows.
@@ -95,11 +97,13 @@ struct MultiresOptions {
     /// clusters it consumes: each level may at most double the error, so the levels form an even
     /// ladder.
     double error_growth = 2.0;
-    /// 0.35 rather than Nanite's 0.5: the size benchmark (scripts/bench-size.sh) measured 26-27 %
-    /// fewer bytes in all (levels >= 1 cost 0.54x) for about the same chunk bytes a viewer loads
-    /// to reach 1-8 px, at some more triangles drawn for a given error on the torso (+23 % at
-    /// 1 px) and fewer on the phantoms.
-    double keep_fraction = 0.35;
+    /// 0.2 rather than Nanite's 0.5: with version 2 of the progressive format the size benchmark
+    /// (scripts/bench-size.sh sweep) measured, at 4096 triangles per cluster, total bytes over
+    /// single-rate Draco of 1.80 (0.35), 1.58 (0.25), 1.47 (0.2) on the torso and 1.54 (0.25),
+    /// 1.47 (0.2) on TotalSegmentator; triangles over all levels / level 0: 1.58, 1.38, 1.28.
+    /// The error schedule (error_growth) binds from the second level on, so a lower fraction
+    /// mostly thins the first, free step of each group.
+    double keep_fraction = 0.2;
     /// Collapses above this bound (px) are never made. The coarsest level is reached when no
     /// group can shrink by `min_reduction`.
     double max_error_px = std::numeric_limits<double>::infinity();

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "exporters/progressive_format.h"
 #include "exporters/progressive_gltf.h"
 #include "mesh/mesh_checks.h"
 #include "phantom/catalogue.h"
@@ -147,6 +148,14 @@ void expect_same_model(const ProgressiveFile& file, const Written& w) {
     for (auto it = errors.begin(); it != errors.end(); ++it) {
         const auto next = std::next(it);
         const double tau = next == errors.end() ? *it * 2.0 : (*it + *next) / 2.0;
+        // errors are written rounded up to 3 significant digits: skip a bound that falls between
+        // an exact error and its written value (the file rightly refines that group, memory not)
+        const bool ambiguous = std::any_of(errors.begin(), errors.end(), [&](double e) {
+            return e <= tau && format::round_up_decimal(e * m_per_px, 3) > tau * m_per_px;
+        });
+        if (ambiguous) {
+            continue;
+        }
         const MultiresCut a = select_cut_by_error(mem, tau);
         const MultiresCut b = select_cut_by_error(read, tau * m_per_px);
         EXPECT_EQ(a.clusters, b.clusters) << "tau " << tau;
