@@ -23,11 +23,12 @@ struct BuildOptions {
     std::optional<Vec3> spacing_mm;                   ///< --spacing override (mm along x, y, z)
     std::vector<std::string> labels;                  ///< --labels: values or names; empty: all
     std::filesystem::path color_table;                ///< --color-table file
-    std::filesystem::path debug_dir;       ///< --debug-dir: per-slice debug pictures; empty: none
-    double tolerance_px = 0.5;             ///< contour simplification tolerance, pixels
-    unsigned threads = 0;                  ///< worker threads, 0 = all cores
-    std::string mesh_format = "ply";       ///< per-object mesh files: ply, obj or stl
-    std::size_t cluster_triangles = 2048;  ///< target triangles per multiresolution cluster
+    std::filesystem::path allow_data_file;  ///< --allow-data-file: NRRD data outside its folder
+    std::filesystem::path debug_dir;        ///< --debug-dir: per-slice debug pictures; empty: none
+    double tolerance_px = 0.5;              ///< contour simplification tolerance, pixels
+    unsigned threads = 0;                   ///< worker threads, 0 = all cores
+    std::string mesh_format = "ply";        ///< per-object mesh files: ply, obj or stl
+    std::size_t cluster_triangles = 2048;   ///< target triangles per multiresolution cluster
     /// The progressive scene OUTPUT/model.<format>: "glb" (one file) or "gltf" (JSON, base
     /// buffer and one buffer file per level, for HTTP range requests).
     std::string model_format = "glb";
@@ -55,6 +56,7 @@ struct ExtractOptions {
     std::optional<Vec3> spacing_mm;
     std::vector<std::string> labels;
     std::filesystem::path color_table;
+    std::filesystem::path allow_data_file;
     double tolerance_px = 0.5;
     unsigned threads = 0;
     OutputOptions output_options;
@@ -85,6 +87,7 @@ struct InfoOptions {
     std::string input;
     std::optional<Vec3> spacing_mm;
     std::filesystem::path color_table;
+    std::filesystem::path allow_data_file;
     OutputOptions output;
 };
 
