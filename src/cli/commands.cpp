@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli/output_folder.h"
 #include "contours/contour_stats.h"
 #include "core/atomic_write.h"
 #include "core/error.h"
@@ -244,6 +245,25 @@ std::string file_stem(const std::string& name) {
 
 namespace {
 
+/// `stem`, or `stem_LABEL`, or `stem_LABEL_2`, ...: the first not in `taken` (two objects never
+/// share a mesh file, whatever their names: "a" with value 12 beside an object named "a_12").
+std::string unique_stem(const std::string& stem,
+                        std::uint16_t label,
+                        const std::vector<std::string>& taken) {
+    const auto is_taken = [&](const std::string& s) {
+        return std::find(taken.begin(), taken.end(), s) != taken.end();
+    };
+    if (!is_taken(stem)) {
+        return stem;
+    }
+    const std::string with_label = stem + "_" + std::to_string(label);
+    std::string candidate = with_label;
+    for (int n = 2; is_taken(candidate); ++n) {
+        candidate = with_label + "_" + std::to_string(n);
+    }
+    return candidate;
+}
+
 /// The stack a command works on: the input file or folder, else the named phantom; spacing
 /// override and label selection applied.
 SliceStack load_stack(const std::string& input,
@@ -252,7 +272,8 @@ SliceStack load_stack(const std::string& input,
                       const std::filesystem::path& color_table,
                       const std::vector<std::string>& labels,
                       TerminalProgress& progress,
-                      Report& report) {
+                      Report& report,
+                      const std::filesystem::path& allowed_data_file = {}) {
     SliceStack stack;
     if (input.empty()) {
         stack = make_phantom(phantom).stack;
@@ -275,6 +296,7 @@ SliceStack load_stack(const std::string& input,
         ReadOptions read;
         read.spacing_mm = spacing_mm;
         read.color_table = color_table;
+        read.allowed_data_file = allowed_data_file;
         read.progress = progress.callback();
         stack = read_slice_stack(input, read, report);
     }
@@ -579,7 +601,8 @@ Json write_lods(const BuildOptions& options,
                 const LodRequest& request,
                 const std::vector<ProgressiveObject>& progressive,
                 const SliceFrame& frame,
-                const SceneInfo& info) {
+                const SceneInfo& info,
+                const StagedOutputFolder& out) {
     LodOptions lod;
     lod.level_count = request.count;
     for (const ErrorBound& b : request.bounds) {
@@ -600,7 +623,7 @@ Json write_lods(const BuildOptions& options,
         objects.push_back({p.name, p.label, p.srgb, p.model});
     }
     const std::filesystem::path file = options.output_dir / "lods.glb";
-    const LodStats stats = write_lod_gltf(file, objects, frame, info, lod);
+    const LodStats stats = write_lod_gltf(out.staged(file), objects, frame, info, lod);
     Json j = {{"file", file.string()},
               {"compression", options.lod_compression},
               {"total_bytes", stats.total_bytes}};
@@ -625,6 +648,9 @@ Json write_lods(const BuildOptions& options,
 
 int run_build(const BuildOptions& options) {
     const auto start = Clock::now();
+    // note: the output folder is checked and locked before any work; every output goes into
+    // its staging folder, which replaces it at the end (all or nothing)
+    StagedOutputFolder out(options.output_dir);
     const LodRequest lod_request = parse_lod_levels(options.lod_levels);
     Report report;
     TerminalProgress progress(options.output.quiet || options.output.json);
@@ -659,7 +685,7 @@ int run_build(const BuildOptions& options) {
                             options.input + "'");
         }
         stack = load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
-                           options.labels, progress, report);
+                           options.labels, progress, report, options.allow_data_file);
         input_seconds = seconds_since(start);
         result = reconstruct(stack, reconstruct_options, report);
     }
@@ -671,7 +697,7 @@ int run_build(const BuildOptions& options) {
             char name[48];
             std::snprintf(name, sizeof(name), "contours_%04u.png", k);
             write_rgb_png(draw_slice_contours(stack, result.contours, k, view),
-                          options.debug_dir / name);
+                          out.staged(options.debug_dir / name));
         }
         for (std::uint32_t k = 0; k + 1 < stack.depth; ++k) {
             char name[48];
@@ -679,7 +705,7 @@ int run_build(const BuildOptions& options) {
             write_rgb_png(draw_medial_axis(result.contours.slices[k], result.contours.slices[k + 1],
                                            result.fields[k], result.fields[k + 1],
                                            result.medial_axes[k], view),
-                          options.debug_dir / name);
+                          out.staged(options.debug_dir / name));
         }
     }
 
@@ -695,16 +721,13 @@ int run_build(const BuildOptions& options) {
         SceneObject object = scene_object(stack, surface.label);
         object.mesh = surface_to_world(stack, result.slice_spacing_px, surface.mesh);
         const MeshReport check = check_mesh(object.mesh);
-        std::string stem = file_stem(object.name);
-        if (std::find(stems.begin(), stems.end(), stem) != stems.end()) {
-            stem += "_" + std::to_string(surface.label);
-        }
+        const std::string stem = unique_stem(file_stem(object.name), surface.label, stems);
         stems.push_back(stem);
         const std::filesystem::path mesh_file =
             options.output_dir / "meshes" / (stem + "." + options.mesh_format);
         if (!object.mesh.triangles.empty()) {
             write_mesh(
-                object.mesh, mesh_file,
+                object.mesh, out.staged(mesh_file),
                 options.mesh_format == "stl" ? std::vector<Vec3>{} : shading_normals(object.mesh));
         }
         Json genus = Json::array();
@@ -762,9 +785,11 @@ int run_build(const BuildOptions& options) {
             continue;
         }
         if (!(result.models[i].grid_step > 0.0)) {
-            report.warn("export", scene[i].name,
-                        "left out of the progressive scene: its surface is not on a grid");
-            continue;
+            // note: every object of the input is in every output, or the build fails
+            throw Error(ErrorCode::Internal,
+                        "export: " + scene[i].name + " (label " + std::to_string(scene[i].label) +
+                            "): its surface is not on a grid, so it cannot be in model." +
+                            options.model_format + "; no outputs written");
         }
         ProgressiveObject object;
         object.name = scene[i].name;
@@ -784,7 +809,7 @@ int run_build(const BuildOptions& options) {
         info.generator = "strata 0.1.0";
         ProgressiveOptions export_options;
         export_options.threads = options.threads;
-        model_stats = write_progressive_gltf(model_file, progressive,
+        model_stats = write_progressive_gltf(out.staged(model_file), progressive,
                                              slice_frame(stack, result.slice_spacing_px), info,
                                              export_options);
     }
@@ -796,7 +821,7 @@ int run_build(const BuildOptions& options) {
         info.spacing_mm = {spacing.x, spacing.y, spacing.z};
         info.generator = "strata 0.1.0";
         lods_json = write_lods(options, lod_request, progressive,
-                               slice_frame(stack, result.slice_spacing_px), info);
+                               slice_frame(stack, result.slice_spacing_px), info, out);
     }
     const double export_seconds = seconds_since(export_start);
 
@@ -810,11 +835,12 @@ int run_build(const BuildOptions& options) {
         info.spacing_mm = {spacing.x, spacing.y, spacing.z};
         info.generator = "strata 0.1.0";
         if (options.scene_meshopt) {
-            detail::write_meshopt_scene(scene_file, scene, info);  // EXT_meshopt_compression
+            detail::write_meshopt_scene(out.staged(scene_file), scene,
+                                        info);  // EXT_meshopt_compression
         } else {
             SceneGltfOptions scene_options;
             scene_options.draco = !options.scene_uncompressed;
-            write_scene_gltf(scene_file, scene, info, scene_options);
+            write_scene_gltf(out.staged(scene_file), scene, info, scene_options);
         }
     }
 
@@ -895,7 +921,8 @@ int run_build(const BuildOptions& options) {
     summary["timings_s"] = timings;
     summary["warnings"] = warnings_json(report);
     const std::filesystem::path summary_file = options.output_dir / "summary.json";
-    write_file_atomically(summary_file, summary.dump(2) + "\n");
+    write_file_atomically(out.staged(summary_file), summary.dump(2) + "\n");
+    out.commit();
 
     if (options.output.json) {
         std::cout << summary.dump(2) << '\n';
@@ -976,11 +1003,23 @@ int run_extract(const ExtractOptions& options) {
                                                  ".obj, .stl, .glb or .gltf");
     }
     const ErrorBound bound = parse_error_bound(options.max_error);
+    {
+        // note: checked before any work, not after the whole pipeline ran
+        std::error_code ec;
+        const auto type = std::filesystem::status(options.output, ec).type();
+        if (type != std::filesystem::file_type::not_found &&
+            type != std::filesystem::file_type::regular) {
+            throw Error(ErrorCode::InvalidInput,
+                        "extract: -o " + options.output.string() +
+                            " exists and is not a regular file (a folder?), expected a file name");
+        }
+    }
     if (is_gltf_path(options.input)) {
         return extract_from_file(options, bound);
     }
-    const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
-                                        options.color_table, options.labels, progress, report);
+    const SliceStack stack =
+        load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
+                   options.labels, progress, report, options.allow_data_file);
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
@@ -1149,6 +1188,7 @@ int run_info(const InfoOptions& options) {
     ReadOptions read;
     read.spacing_mm = options.spacing_mm;
     read.color_table = options.color_table;
+    read.allowed_data_file = options.allow_data_file;
     TerminalProgress progress(options.output.quiet || options.output.json);
     read.progress = progress.callback();
     const SliceStack stack = read_slice_stack(options.input, read, report);

@@ -24,10 +24,11 @@ struct BuildOptions {
     std::optional<Vec3> spacing_mm;                   ///< --spacing override (mm along x, y, z)
     std::vector<std::string> labels;                  ///< --labels: values or names; empty: all
     std::filesystem::path color_table;                ///< --color-table file
-    std::filesystem::path debug_dir;       ///< --debug-dir: per-slice debug pictures; empty: none
-    double tolerance_px = 0.5;             ///< contour simplification tolerance, pixels
-    unsigned threads = 0;                  ///< worker threads, 0 = all cores
-    std::string mesh_format = "ply";       ///< per-object mesh files: ply, obj or stl
+    std::filesystem::path allow_data_file;  ///< --allow-data-file: NRRD data outside its folder
+    std::filesystem::path debug_dir;        ///< --debug-dir: per-slice debug pictures; empty: none
+    double tolerance_px = 0.5;              ///< contour simplification tolerance, pixels
+    unsigned threads = 0;                   ///< worker threads, 0 = all cores
+    std::string mesh_format = "ply";        ///< per-object mesh files: ply, obj or stl
     /// target triangles per multiresolution cluster (MultiresOptions' default, measured there)
     std::size_t cluster_triangles = MultiresOptions{}.cluster_triangles;
     /// The progressive scene OUTPUT/model.<format>: "glb" (one file) or "gltf" (JSON, base
@@ -57,6 +58,7 @@ struct ExtractOptions {
     std::optional<Vec3> spacing_mm;
     std::vector<std::string> labels;
     std::filesystem::path color_table;
+    std::filesystem::path allow_data_file;
     double tolerance_px = 0.5;
     unsigned threads = 0;
     OutputOptions output_options;
@@ -87,6 +89,7 @@ struct InfoOptions {
     std::string input;
     std::optional<Vec3> spacing_mm;
     std::filesystem::path color_table;
+    std::filesystem::path allow_data_file;
     OutputOptions output;
 };
 

@@ -27,6 +27,26 @@ void add_output_flags(CLI::App& app, strata::cli::OutputOptions& output) {
     app.add_flag("-q,--quiet", output.quiet, "No progress and no text summary");
 }
 
+/// "liver, spleen": CLI11 splits --labels at the commas; the spaces around an entry are not
+/// part of the name.
+CLI::Validator trimmed() {
+    return CLI::Validator(
+        [](std::string& text) {
+            const std::size_t first = text.find_first_not_of(" \t");
+            text = first == std::string::npos
+                       ? std::string()
+                       : text.substr(first, text.find_last_not_of(" \t") - first + 1);
+            return std::string();
+        },
+        "", "trimmed");
+}
+
+void add_data_file_flag(CLI::App& app, std::filesystem::path& file) {
+    app.add_option("--allow-data-file", file,
+                   "Read this NRRD detached data file although it lies outside the header's "
+                   "folder (refused otherwise)");
+}
+
 void add_spacing_flag(CLI::App& app, std::optional<strata::Vec3>& spacing) {
     app.add_option_function<std::string>(
            "--spacing",
@@ -66,7 +86,9 @@ int main(int argc, char** argv) {
     build_cmd
         ->add_option("--labels", build.labels,
                      "Labels to reconstruct, by value or name (comma separated); default all")
-        ->delimiter(',');
+        ->delimiter(',')
+        ->transform(trimmed());
+    add_data_file_flag(*build_cmd, build.allow_data_file);
     build_cmd->add_option("--color-table", build.color_table,
                           "Colour table naming labels: 3D Slicer .ctbl/.txt, ITK-SNAP label "
                           "description, or JSON {\"value\": \"name\"}");
@@ -154,7 +176,9 @@ int main(int argc, char** argv) {
     extract_cmd
         ->add_option("--labels", extract.labels,
                      "Labels to extract, by value or name (comma separated); default all")
-        ->delimiter(',');
+        ->delimiter(',')
+        ->transform(trimmed());
+    add_data_file_flag(*extract_cmd, extract.allow_data_file);
     extract_cmd->add_option("--color-table", extract.color_table, "Colour table naming labels");
     extract_cmd
         ->add_option("--tolerance", extract.tolerance_px,
@@ -172,6 +196,7 @@ int main(int argc, char** argv) {
         ->required();
     add_spacing_flag(*info_cmd, info.spacing_mm);
     info_cmd->add_option("--color-table", info.color_table, "Colour table naming labels");
+    add_data_file_flag(*info_cmd, info.allow_data_file);
     add_output_flags(*info_cmd, info.output);
 
     try {

@@ -445,4 +445,31 @@ SliceStack read_image_folder(const fs::path& folder, const ReadOptions& options,
     return stack;
 }
 
+SliceStack read_single_image(const fs::path& file, const ReadOptions& options, Report& report) {
+    if (is_tiff(file)) {
+        return read_multipage_tiff(file, options, report);
+    }
+    auto in = open_image(file);
+    SliceStack stack;
+    stack.source = file.string();
+    stack.source_frame = "none";
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0) {
+        throw Error(ErrorCode::InvalidInput,
+                    file.string() + ": empty image, expected positive size");
+    }
+    stack.width = static_cast<std::uint32_t>(spec.width);
+    stack.height = static_cast<std::uint32_t>(spec.height);
+    stack.depth = 1;
+    check_stack_dimensions(stack.width, stack.height, 1, file.string(), options.max_bytes);
+    check_image_holds(file, stack.slice_size());
+    stack.labels.assign(stack.slice_size(), 0);
+    read_label_image(*in, 0, stack.width, stack.height, file.filename().string(),
+                     stack.labels.data(), report);
+    if (options.progress) {
+        options.progress("slices", 1, 1);
+    }
+    return stack;
+}
+
 }  // namespace strata::detail

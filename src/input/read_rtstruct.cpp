@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <dcmtk/config/osconfig.h>
 #include <dcmtk/dcmdata/dctk.h>
+#include <dcmtk/oflog/oflog.h>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -71,6 +72,8 @@ DcmDataset* load(DcmFileFormat& file, const std::string& path) {
     if (!std::filesystem::is_regular_file(path)) {
         throw Error(ErrorCode::Io, path + ": cannot open the file");
     }
+    // note: DCMTK logs its own parse errors to stderr; ours say what and where
+    OFLog::configure(OFLogger::FATAL_LOG_LEVEL);
     const OFCondition status = file.loadFile(path.c_str());
     if (status.bad()) {
         fail(path, std::string("not a readable DICOM file (") + status.text() + ")");

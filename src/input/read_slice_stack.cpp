@@ -110,7 +110,7 @@ SliceStack read_any(const fs::path& path, const ReadOptions& options, Report& re
             stack = detail::read_nrrd(path, options, report);
             break;
         case Format::Image:
-            stack = detail::read_multipage_tiff(path, options, report);
+            stack = detail::read_single_image(path, options, report);
             break;
         case Format::Unknown: {
             const std::string ext = lower(path.extension().string());

@@ -252,12 +252,21 @@ Reconstruction reconstruct(const SliceStack& stack,
                 stack, result.contours, result.fields, result.medial_axes, again);
             for (std::size_t j = 0; j < redo.size(); ++j) {
                 const std::size_t i = redo[j];
-                report.warn(
-                    "contours", "label " + std::to_string(result.surfaces[i].label),
-                    "built again with contour vertices at pixel corners only: " + unsnapped[i]);
+                const std::string first_try = unsnapped[i];
                 result.surfaces[i] = std::move(rebuilt[j]);
                 unsnapped[i] = quantize_and_verify(stack, result.slice_spacing_px, options.quantize,
                                                    options.verify, result.surfaces[i]);
+                // note: the warning says how the retry ended (the quantize warning below says
+                // so again when it failed too)
+                const std::string why = first_try.substr(first_try.find(": ") + 2);
+                report.warn(
+                    "contours", "label " + std::to_string(result.surfaces[i].label),
+                    "could not be snapped to a grid with edge-midpoint contours (" + why +
+                        "); built again with contour vertices at pixel corners only: " +
+                        (unsnapped[i].empty() ? "snapped to the grid of step " +
+                                                    std::to_string(result.surfaces[i].grid_step) +
+                                                    " px, in the progressive model"
+                                              : "still " + unsnapped[i]));
             }
         }
         clock.done(options.quantize.enabled ? "quantize+verify" : "verify");

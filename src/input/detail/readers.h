@@ -16,6 +16,12 @@ SliceStack read_image_folder(const std::filesystem::path& folder,
                              const ReadOptions& options,
                              Report& report);
 
+/// One image file as a stack: a (multi-page) TIFF through read_multipage_tiff, any other image
+/// as one slice (OpenImageIO).
+SliceStack read_single_image(const std::filesystem::path& file,
+                             const ReadOptions& options,
+                             Report& report);
+
 /// Multi-page TIFF: one page per slice.
 SliceStack read_multipage_tiff(const std::filesystem::path& file,
                                const ReadOptions& options,
