@@ -49,10 +49,17 @@ void start_signal_watcher() {
             {
                 std::lock_guard<std::mutex> lock(g_mutex);
                 if (!g_staging.empty()) {
+                    // note: workers may still be writing: the folder is moved aside and a file
+                    // put in its place, so that they cannot create it again while it is removed
                     std::error_code ec;
-                    // note: workers may still add files: retry until the folder is gone
-                    for (int attempt = 0; attempt < 10 && fs::exists(g_staging, ec); ++attempt) {
-                        fs::remove_all(g_staging, ec);
+                    const fs::path trash = g_staging.string() + "-interrupted";
+                    fs::rename(g_staging, trash, ec);
+                    const int blocker =
+                        ::open(g_staging.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+                    fs::remove_all(ec ? g_staging : trash, ec);
+                    if (blocker >= 0) {
+                        ::close(blocker);
+                        ::unlink(g_staging.c_str());
                     }
                     g_staging.clear();
                 }
