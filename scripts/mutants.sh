@@ -170,16 +170,17 @@ mutant simplify-keep-fraction src/simplify/multires_dag.cpp \
     'simplify_test' '^(SimplifyBudget|MultiresDag)'
 
 # exporters (exporters/)
-mutant export-bound-rounded-down exporters/progressive_gltf.cpp \
-    'if (r >= x || !std::isfinite(r)) {
-            return r >= x ? r : x;' \
-    'if (true) {
-            return r;' \
+mutant export-bound-rounded-down exporters/progressive_format.cpp \
+    'double r = std::strtod(text, nullptr);
+    if (r >= x) {' \
+    'double r = std::strtod(text, nullptr);
+    if (true) {' \
     'exporters_test' '^(ProgressiveGltf|ReadProgressiveGltf|DracoChunk)'
 mutant export-sphere-rounded-down exporters/progressive_gltf.cpp \
-    'out.v[3] = short_decimal(std::ceil(radius / step) * step, kSphereDecimals);
-    while (out.v[3] < radius) {' \
-    'out.v[3] = short_decimal(std::round(radius / step) * step, kSphereDecimals);
+    '    radius *= 1.0 + 1e-7;
+    float r = to_float(radius);
+    while (double(r) < radius) {' \
+    '    float r = to_float(radius);
     while (false) {' \
     'exporters_test' '^(ProgressiveGltf|ReadProgressiveGltf|DracoChunk)'
 mutant export-draco-range-short exporters/detail/draco_chunk.cpp \
