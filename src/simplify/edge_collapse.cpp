@@ -557,7 +557,11 @@ private:
         std::sort(edges.begin(), edges.end());
         edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
         std::size_t count = 0;
-        for (const auto& [a, b] : edges) {
+        for (const auto& edge : edges) {
+            // note: named copies, not a structured binding: clang 14 (the fuzz build) cannot
+            // capture a binding in the lambda below
+            const auto a = std::get<0>(edge);
+            const auto b = std::get<1>(edge);
             std::array<Vec3, 2> normal{};
             int found = 0;
             auto visit = [&](std::uint32_t t) {
