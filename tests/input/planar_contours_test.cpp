@@ -311,10 +311,12 @@ TEST(PlanarContours, BadContourJsonIsRefusedWithItsPath) {
 }
 
 TEST(PlanarContours, CliAnswersBadDicomWithExitTwo) {
+    // note: the output folder is a subfolder: a build refuses a folder that holds other files
+    // (here the captured stderr)
     const fs::path out = test::fresh_temp_dir("planar_cli");
     const std::string command = "'" + test::cli_path().string() + "' build '" + kCt.string() +
-                                "' -o '" + out.string() + "' --quiet 2>'" + (out / "err").string() +
-                                "'";
+                                "' -o '" + (out / "model").string() + "' --quiet 2>'" +
+                                (out / "err").string() + "'";
     const int status = std::system(command.c_str());
     ASSERT_TRUE(WIFEXITED(status));
     EXPECT_EQ(WEXITSTATUS(status), 2);
@@ -324,8 +326,8 @@ TEST(PlanarContours, CliAnswersBadDicomWithExitTwo) {
 
     // a pitch far too fine for the structures' extent
     const std::string fine = "'" + test::cli_path().string() + "' build '" + kJson.string() +
-                             "' --contour-pitch 1e-9 -o '" + out.string() + "' --quiet 2>'" +
-                             (out / "err2").string() + "'";
+                             "' --contour-pitch 1e-9 -o '" + (out / "model").string() +
+                             "' --quiet 2>'" + (out / "err2").string() + "'";
     const int fine_status = std::system(fine.c_str());
     ASSERT_TRUE(WIFEXITED(fine_status));
     EXPECT_EQ(WEXITSTATUS(fine_status), 2) << test::read_file(out / "err2");
