@@ -26,6 +26,7 @@
 #include "core/file_names.h"
 #include "core/parallel.h"
 #include "exporters/detail/draco_chunk.h"
+#include "exporters/detail/glb_container.h"
 #include "exporters/detail/gltf_common.h"
 #include "exporters/progressive_format.h"
 #include "mesh/shading_normals.h"
@@ -669,39 +670,6 @@ void check_object(const std::filesystem::path& path,
     }
 }
 
-/// GLB container (glTF 2.0 section 4.4): header, JSON chunk (space padded), BIN chunk.
-std::string glb_bytes(const std::filesystem::path& path,
-                      const std::string& json,
-                      const std::string& bin) {
-    std::string padded_json = json;
-    padded_json.resize((padded_json.size() + 3) / 4 * 4, ' ');
-    const std::uint64_t total = 12 + 8 + padded_json.size() + (bin.empty() ? 0 : 8 + bin.size());
-    if (total > std::numeric_limits<std::uint32_t>::max()) {
-        fail(ErrorCode::Unsupported, path,
-             "the scene needs " + std::to_string(total) +
-                 " bytes, more than a .glb holds (4 GiB); write .gltf instead");
-    }
-    std::string out;
-    out.reserve(total);
-    const auto u32 = [&](std::uint32_t v) {
-        for (int i = 0; i < 4; ++i) {
-            out.push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
-        }
-    };
-    u32(format::kGlbMagic);
-    u32(2);
-    u32(static_cast<std::uint32_t>(total));
-    u32(static_cast<std::uint32_t>(padded_json.size()));
-    u32(format::kGlbJsonChunk);
-    out += padded_json;
-    if (!bin.empty()) {
-        u32(static_cast<std::uint32_t>(bin.size()));
-        u32(format::kGlbBinChunk);
-        out += bin;
-    }
-    return out;
-}
-
 }  // namespace
 
 ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
@@ -774,7 +742,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     const std::string text = json.dump();  // compact: the JSON is part of a first frame's bytes
     stats.json_bytes = text.size();
     if (single) {
-        const std::string bytes = glb_bytes(path, text, data);
+        const std::string bytes = detail::glb_container(path, text, data);
         write_file_atomically(path, bytes);
         stats.total_bytes = bytes.size();
         stats.base_bytes = 12 + 8 + (text.size() + 3) / 4 * 4 + 8 + buffer.prefix.size();

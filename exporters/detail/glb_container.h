@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "exporters/progressive_format.h"
 
 namespace strata::detail {
 
@@ -32,15 +33,15 @@ inline std::string glb_container(const std::filesystem::path& path,
             out.push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
         }
     };
-    u32(0x46546C67);  // "glTF"
+    u32(format::kGlbMagic);
     u32(2);
     u32(static_cast<std::uint32_t>(total));
     u32(static_cast<std::uint32_t>(padded_json.size()));
-    u32(0x4E4F534A);  // "JSON"
+    u32(format::kGlbJsonChunk);
     out += padded_json;
     if (!bin.empty()) {
         u32(static_cast<std::uint32_t>(bin.size()));
-        u32(0x004E4942);  // "BIN\0"
+        u32(format::kGlbBinChunk);
         out += bin;
     }
     return out;
