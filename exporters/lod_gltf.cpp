@@ -29,6 +29,7 @@
 #include "exporters/detail/gltf_assembly.h"
 #include "exporters/detail/gltf_common.h"
 #include "exporters/detail/meshopt_streams.h"
+#include "exporters/detail/storage_frame.h"
 
 namespace strata {
 
@@ -75,58 +76,6 @@ void check_options(const std::filesystem::path& path, const LodOptions& options)
     }
 }
 
-/// Where stored positions live: grid coordinates (x px, y px, z in slices; x negated when the
-/// slice frame mirrors, so the node matrix is a rotation times positive scales) and the map
-/// from them to LPS mm.
-struct StorageFrame {
-    double flip_x = 1.0;
-    double d = 1.0;
-    std::array<double, 16> matrix{};  ///< storage -> LPS mm, column-major
-};
-
-StorageFrame storage_frame(const std::filesystem::path& path, const SliceFrame& frame) {
-    const auto& l = frame.linear;
-    const auto column = [&](int c) { return Vec3{l[c], l[3 + c], l[6 + c]}; };
-    for (double v : l) {
-        if (!std::isfinite(v)) {
-            fail(ErrorCode::InvalidInput, path, "the slice frame has a non-finite entry");
-        }
-    }
-    if (!(frame.slice_spacing_px > 0.0) || !std::isfinite(frame.slice_spacing_px) ||
-        !(frame.error_mm_per_px > 0.0)) {
-        fail(ErrorCode::InvalidInput, path, "slice spacing and error scale must be positive");
-    }
-    for (int a = 0; a < 3; ++a) {
-        if (!(norm(column(a)) > 0.0)) {
-            fail(ErrorCode::InvalidInput, path,
-                 "the slice frame's column " + std::to_string(a) + " is zero");
-        }
-        for (int b = a + 1; b < 3; ++b) {
-            if (std::abs(dot(column(a), column(b))) > 1e-6 * norm(column(a)) * norm(column(b))) {
-                fail(ErrorCode::InvalidInput, path,
-                     "the voxel grid is sheared (columns " + std::to_string(a) + " and " +
-                         std::to_string(b) +
-                         " of the affine are not orthogonal): a glTF node cannot hold the "
-                         "transform; resample the volume to an orthogonal grid");
-            }
-        }
-    }
-    StorageFrame s;
-    s.flip_x = dot(cross(column(0), column(1)), column(2)) < 0.0 ? -1.0 : 1.0;
-    s.d = frame.slice_spacing_px;
-    const std::array<double, 3> scale{s.flip_x, 1.0, s.d};
-    for (int c = 0; c < 3; ++c) {
-        for (int r = 0; r < 3; ++r) {
-            s.matrix[4 * c + r] = l[3 * r + c] * scale[c];
-        }
-    }
-    s.matrix[12] = frame.origin[0];
-    s.matrix[13] = frame.origin[1];
-    s.matrix[14] = frame.origin[2];
-    s.matrix[15] = 1.0;
-    return s;
-}
-
 /// Column-major 4 x 4 product a * b.
 std::array<double, 16> multiply(const std::array<double, 16>& a, const std::array<double, 16>& b) {
     std::array<double, 16> m{};
@@ -169,11 +118,11 @@ struct StorageMesh {
     std::vector<std::array<std::uint32_t, 3>> triangles;
 };
 
-StorageMesh storage_mesh(const TriMesh& cut, const StorageFrame& s, double step) {
+StorageMesh storage_mesh(const TriMesh& cut, const detail::StorageFrame& s, double step) {
     StorageMesh m;
     m.points.reserve(cut.positions.size());
     for (const Vec3& p : cut.positions) {
-        const double z = std::nearbyint(p.z / s.d / step) * step;
+        const double z = std::nearbyint(p.z / s.slice_spacing_px / step) * step;
         m.points.push_back({to_float(s.flip_x * p.x), to_float(p.y), to_float(z)});
     }
     m.triangles = cut.triangles;
@@ -292,7 +241,7 @@ struct MeshoptGrid {
     double step = 0.0;
 };
 
-MeshoptGrid meshopt_grid(const MultiresMesh& model, const StorageFrame& s) {
+MeshoptGrid meshopt_grid(const MultiresMesh& model, const detail::StorageFrame& s) {
     MeshoptGrid g;
     g.step = model.grid_step;
     TriMesh all;
@@ -471,7 +420,7 @@ LodStats write_lod_gltf(const std::filesystem::path& path,
             }
         }
     }
-    const StorageFrame storage = storage_frame(path, frame);
+    const detail::StorageFrame storage = detail::storage_frame(path, frame);
     const bool draco = options.compression == LodCompression::Draco;
 
     // Encode every level of every object.

@@ -28,6 +28,7 @@
 #include "exporters/detail/draco_chunk.h"
 #include "exporters/detail/glb_container.h"
 #include "exporters/detail/gltf_common.h"
+#include "exporters/detail/storage_frame.h"
 #include "exporters/progressive_format.h"
 #include "mesh/shading_normals.h"
 
@@ -94,8 +95,8 @@ Json json_numbers(const std::array<double, 16>& values) {
     return out;
 }
 
-/// Storage frame of one object: grid coordinates (x px, y px, z in slices, x negated when the
-/// slice frame mirrors) and the maps out of it.
+/// The storage frame of one object (detail/storage_frame.h) with the written matrix and the maps
+/// from slice space into the scene.
 struct StorageFrame {
     double flip_x = 1.0;             ///< -1 when the slice frame mirrors
     std::array<double, 16> matrix;   ///< storage -> LPS mm, column-major (glTF node matrix)
@@ -110,44 +111,11 @@ double column_norm(const std::array<double, 9>& m, int c) {
 }
 
 StorageFrame storage_frame(const std::filesystem::path& path, const SliceFrame& frame) {
-    const auto& l = frame.linear;
-    for (double v : l) {
-        if (!std::isfinite(v)) {
-            fail(ErrorCode::InvalidInput, path, "the slice frame has a non-finite entry");
-        }
-    }
-    for (int a = 0; a < 3; ++a) {
-        if (!(column_norm(l, a) > 0.0)) {
-            fail(ErrorCode::InvalidInput, path,
-                 "the slice frame's column " + std::to_string(a) + " is zero");
-        }
-        for (int b = a + 1; b < 3; ++b) {
-            const double dot = l[a] * l[b] + l[3 + a] * l[3 + b] + l[6 + a] * l[6 + b];
-            if (std::abs(dot) > 1e-6 * column_norm(l, a) * column_norm(l, b)) {
-                fail(ErrorCode::InvalidInput, path,
-                     "the voxel grid is sheared (columns " + std::to_string(a) + " and " +
-                         std::to_string(b) +
-                         " of the affine are not orthogonal): a glTF node cannot hold the "
-                         "transform; resample the volume to an orthogonal grid");
-            }
-        }
-    }
-    const double det = l[0] * (l[4] * l[8] - l[5] * l[7]) - l[1] * (l[3] * l[8] - l[5] * l[6]) +
-                       l[2] * (l[3] * l[7] - l[4] * l[6]);
+    const detail::StorageFrame stored = detail::storage_frame(path, frame);
     StorageFrame s;
-    s.flip_x = det < 0.0 ? -1.0 : 1.0;
-    const double d = frame.slice_spacing_px;
-    const std::array<double, 3> scale{s.flip_x, 1.0, d};
-    for (int c = 0; c < 3; ++c) {
-        for (int r = 0; r < 3; ++r) {
-            s.matrix[4 * c + r] = l[3 * r + c] * scale[c];
-        }
-        s.matrix[4 * c + 3] = 0.0;
-    }
-    s.matrix[12] = frame.origin[0];
-    s.matrix[13] = frame.origin[1];
-    s.matrix[14] = frame.origin[2];
-    s.matrix[15] = 1.0;
+    s.flip_x = stored.flip_x;
+    s.matrix = stored.matrix;
+    const std::array<double, 3> scale{s.flip_x, 1.0, stored.slice_spacing_px};
     // The matrix as written: each entry the shortest decimal of its float (JSON bytes: about 80
     // per object; the frame moves by float rounding, < 1e-7 relative, far below the grid step);
     // everything below is computed from the written matrix.
