@@ -50,8 +50,11 @@ import numpy as np
 from scipy import ndimage
 from vtkmodules.util import numpy_support
 from vtkmodules.vtkCommonDataModel import vtkImageData
-from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D, vtkWindowedSincPolyDataFilter
+from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D
 from vtkmodules.vtkFiltersGeneral import vtkDiscreteFlyingEdges3D
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import bench_e2e_peer as e2e  # noqa: E402  (3D Slicer's smoothing)
 
 NIFTI_TYPES = {2: np.uint8, 4: np.int16, 8: np.int32, 256: np.int8, 512: np.uint16,
                768: np.uint32}
@@ -145,16 +148,7 @@ def discrete_flying_edges(labels, values):
 
 
 def slicer_smooth(poly, factor=SLICER_SMOOTHING_FACTOR):
-    smoother = vtkWindowedSincPolyDataFilter()
-    smoother.SetInputData(poly)
-    smoother.SetNumberOfIterations(20)
-    smoother.SetPassBand(10.0 ** (-4.0 * factor))
-    smoother.BoundarySmoothingOff()
-    smoother.FeatureEdgeSmoothingOff()
-    smoother.NonManifoldSmoothingOn()
-    smoother.NormalizeCoordinatesOn()
-    smoother.Update()
-    return smoother.GetOutput()
+    return e2e.slicer_smooth(poly, 20, factor)
 
 
 def shape_based(mask, k_per_px):

@@ -44,67 +44,11 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import bench_e2e_peer as e2e  # noqa: E402  (read_nifti, write_nifti, PLY types)
+import bench_e2e_peer as e2e  # noqa: E402  (NIfTI and PLY files, triangle arrays)
 
 SPACING = (0.78, 0.78, 5.0)
 DIMS = (224, 224, 24)  # x, y, slices
 SEMI_AXES = (62.0, 46.0, 38.0)
-
-
-# ---------------------------------------------------------------------------------------------
-# files
-
-
-def read_ply(path):
-    """Binary little-endian PLY -> (points, triangles, normals or None)."""
-    raw = pathlib.Path(path).read_bytes()
-    end = raw.index(b"end_header\n") + len(b"end_header\n")
-    lines = raw[:end].decode("ascii").splitlines()
-    elements = []
-    for line in lines:
-        w = line.split()
-        if w[0] == "element":
-            elements.append([w[1], int(w[2]), []])
-        elif w[0] == "property":
-            if w[1] == "list":
-                elements[-1][2].append((w[4], ("list", e2e.PLY_TYPES[w[2]], e2e.PLY_TYPES[w[3]])))
-            else:
-                elements[-1][2].append((w[2], e2e.PLY_TYPES[w[1]]))
-    offset = end
-    points = triangles = normals = None
-    for name, count, props in elements:
-        fields = []
-        for pname, ptype in props:
-            if isinstance(ptype, tuple):
-                fields += [(pname + "_n", ptype[1]), (pname, ptype[2], (3,))]
-            else:
-                fields.append((pname, ptype))
-        dtype = np.dtype(fields)
-        data = np.frombuffer(raw, dtype=dtype, count=count, offset=offset)
-        offset += dtype.itemsize * count
-        if name == "vertex":
-            points = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float64)
-            if "nx" in data.dtype.names:
-                normals = np.stack([data["nx"], data["ny"], data["nz"]], axis=1).astype(np.float64)
-        elif name == "face":
-            key = [p for p, t in props if isinstance(t, tuple)][0]
-            triangles = data[key].astype(np.int64)
-    return points, triangles, normals
-
-
-def write_ply(path, points, triangles, normals):
-    header = (f"ply\nformat binary_little_endian 1.0\ncomment bench_appearance_peer\n"
-              f"element vertex {len(points)}\nproperty float x\nproperty float y\n"
-              f"property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
-              f"element face {len(triangles)}\n"
-              f"property list uchar int vertex_indices\nend_header\n")
-    faces = np.zeros(len(triangles), dtype=[("n", "u1"), ("v", "<i4", (3,))])
-    faces["n"] = 3
-    faces["v"] = triangles
-    with open(path, "wb") as out:
-        out.write(header.encode("ascii"))
-        out.write(np.hstack([points, normals]).astype("<f4").tobytes())
-        out.write(faces.tobytes())
 
 
 # ---------------------------------------------------------------------------------------------
@@ -178,8 +122,7 @@ def to_polydata(points, triangles):
 def run_peer(args):
     from vtkmodules.util import numpy_support
     from vtkmodules.vtkCommonDataModel import vtkImageData
-    from vtkmodules.vtkFiltersCore import vtkPolyDataNormals, vtkWindowedSincPolyDataFilter
-    from vtkmodules.vtkFiltersGeneral import vtkDiscreteFlyingEdges3D
+    from vtkmodules.vtkFiltersCore import vtkPolyDataNormals
     from vtkmodules.vtkImagingCore import vtkImageConstantPad
 
     labels, lps = e2e.read_nifti(args.nifti)
@@ -192,24 +135,11 @@ def run_peer(args):
     pad.SetInputData(image)
     pad.SetOutputWholeExtent(-1, nx, -1, ny, -1, nz)
     pad.Update()
-    fe = vtkDiscreteFlyingEdges3D()
-    fe.SetInputData(pad.GetOutput())
-    fe.ComputeGradientsOff()
-    fe.ComputeNormalsOff()
-    fe.SetValue(0, 1)
-    fe.Update()
-    smoother = vtkWindowedSincPolyDataFilter()
-    smoother.SetInputData(fe.GetOutput())
-    smoother.SetNumberOfIterations(args.iterations)
-    smoother.SetPassBand(10.0 ** (-4.0 * 0.5))
-    smoother.BoundarySmoothingOff()
-    smoother.FeatureEdgeSmoothingOff()
-    smoother.NonManifoldSmoothingOn()
-    smoother.NormalizeCoordinatesOn()
-    smoother.Update()
+    surface = e2e.flying_edges(pad.GetOutput(), 1)
+    smoothed = e2e.slicer_smooth(surface, args.iterations)
     out = pathlib.Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    for name, poly in (("flying_edges", fe.GetOutput()), ("slicer", smoother.GetOutput())):
+    for name, poly in (("flying_edges", surface), ("slicer", smoothed)):
         index_points = numpy_support.vtk_to_numpy(poly.GetPoints().GetData()).astype(np.float64)
         world = index_points @ lps[:3, :3].T + lps[:3, 3]
         triangles = e2e.triangle_array(poly)
@@ -225,7 +155,7 @@ def run_peer(args):
         res = normals.GetOutput()
         n = numpy_support.vtk_to_numpy(res.GetPointData().GetNormals()).astype(np.float64)
         p = numpy_support.vtk_to_numpy(res.GetPoints().GetData()).astype(np.float64)
-        write_ply(out / f"{name}.ply", p, e2e.triangle_array(res), n)
+        e2e.write_ply(out / f"{name}.ply", p, e2e.triangle_array(res), n)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -400,7 +330,7 @@ def slice_error(points, triangles, labels, lps, label):
 
 
 def run_metrics(args):
-    points, triangles, normals = read_ply(args.mesh)
+    points, triangles, normals = e2e.read_ply(args.mesh, with_normals=True)
     if args.area_normals:
         normals = None
     if args.shading_normals:
@@ -422,8 +352,8 @@ def run_metrics(args):
 
 
 def run_normals(args):
-    points, triangles, _ = read_ply(args.mesh)
-    write_ply(args.out, points, triangles, shading_normals(points, triangles))
+    points, triangles, _ = e2e.read_ply(args.mesh, with_normals=True)
+    e2e.write_ply(args.out, points, triangles, shading_normals(points, triangles))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -446,7 +376,7 @@ def run_render(args):
     window.SetSize(width * len(panels), width)
     camera = None
     for i, (title, path) in enumerate(panels):
-        points, triangles, normals = read_ply(path)
+        points, triangles, normals = e2e.read_ply(path, with_normals=True)
         if normals is None:
             _, normals = surface_metrics(points, triangles, None)
         pd = to_polydata(points, triangles)

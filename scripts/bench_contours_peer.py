@@ -37,7 +37,8 @@ import time
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-from bench_e2e_peer import mesh_distance, read_ply, triangle_array, write_ply  # noqa: E402
+from bench_e2e_peer import (flying_edges, mesh_distance, read_ply, slicer_smooth,  # noqa: E402
+                            triangle_array, write_ply)
 
 BALL_R = 20.0
 TORUS_C = np.array([60.0, 0.0, 0.0])
@@ -121,9 +122,8 @@ def run_raster(args):
     from vtkmodules.vtkCommonCore import vtkSMPTools
     from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkCommonTransforms import vtkTransform
-    from vtkmodules.vtkFiltersCore import (vtkAppendPolyData, vtkPolyDataNormals,
-                                           vtkWindowedSincPolyDataFilter)
-    from vtkmodules.vtkFiltersGeneral import vtkDiscreteFlyingEdges3D, vtkTransformPolyDataFilter
+    from vtkmodules.vtkFiltersCore import vtkAppendPolyData, vtkPolyDataNormals
+    from vtkmodules.vtkFiltersGeneral import vtkTransformPolyDataFilter
 
     vtkSMPTools.Initialize(2)
     out = pathlib.Path(args.out_dir)
@@ -151,26 +151,12 @@ def run_raster(args):
     start = time.perf_counter()
     append = vtkAppendPolyData()
     for value in (1, 2):
-        fe = vtkDiscreteFlyingEdges3D()
-        fe.SetInputData(image)
-        fe.ComputeGradientsOff()
-        fe.ComputeNormalsOff()
-        fe.SetValue(0, value)
-        fe.Update()
-        smoother = vtkWindowedSincPolyDataFilter()
-        smoother.SetInputData(fe.GetOutput())
-        smoother.SetNumberOfIterations(20)
-        smoother.SetPassBand(10.0 ** (-4.0 * 0.5))
-        smoother.BoundarySmoothingOff()
-        smoother.FeatureEdgeSmoothingOff()
-        smoother.NonManifoldSmoothingOn()
-        smoother.NormalizeCoordinatesOn()
-        smoother.Update()
+        smoothed = slicer_smooth(flying_edges(image, value))
         transform = vtkTransform()  # index -> mm (uniform planes: an affine map)
         transform.Translate(xs[0], ys[0], z_all[0])
         transform.Scale(px, px, gap)
         to_world = vtkTransformPolyDataFilter()
-        to_world.SetInputData(smoother.GetOutput())
+        to_world.SetInputData(smoothed)
         to_world.SetTransform(transform)
         normals = vtkPolyDataNormals()
         normals.SetInputConnection(to_world.GetOutputPort())

@@ -396,8 +396,9 @@ PLY_TYPES = {"char": "i1", "uchar": "u1", "int8": "i1", "uint8": "u1", "short": 
              "double": "<f8", "float64": "<f8"}
 
 
-def read_ply(path):
-    """Binary little-endian triangle PLY -> (points n x 3 float64, triangles m x 3 int64)."""
+def read_ply(path, with_normals=False):
+    """Binary little-endian triangle PLY -> (points n x 3 float64, triangles m x 3 int64), and
+    with_normals: the vertex normals too (n x 3 float64, None when the file has none)."""
     raw = pathlib.Path(path).read_bytes()
     end = raw.index(b"end_header\n") + len(b"end_header\n")
     lines = raw[:end].decode("ascii").splitlines()
@@ -414,7 +415,7 @@ def read_ply(path):
             else:
                 elements[-1][2].append((w[2], PLY_TYPES[w[1]]))
     offset = end
-    points = triangles = None
+    points = triangles = normals = None
     for name, count, props in elements:
         fields = []
         for pname, ptype in props:
@@ -427,25 +428,31 @@ def read_ply(path):
         offset += dtype.itemsize * count
         if name == "vertex":
             points = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float64)
+            if "nx" in data.dtype.names:
+                normals = np.stack([data["nx"], data["ny"], data["nz"]], axis=1).astype(np.float64)
         elif name == "face":
             key = [p for p, t in props if isinstance(t, tuple)][0]
             if count and not np.all(data[key + "_n"] == 3):
                 sys.exit(f"{path}: expected triangles only")
             triangles = data[key].astype(np.int64)
-    return points, triangles
+    return (points, triangles, normals) if with_normals else (points, triangles)
 
 
-def write_ply(path, points, triangles):
-    header = (f"ply\nformat binary_little_endian 1.0\ncomment bench_e2e_peer\n"
+def write_ply(path, points, triangles, normals=None):
+    """Binary little-endian triangle PLY, with vertex normals when given."""
+    normal_props = "property float nx\nproperty float ny\nproperty float nz\n"
+    header = (f"ply\nformat binary_little_endian 1.0\ncomment strata benchmark peer\n"
               f"element vertex {len(points)}\nproperty float x\nproperty float y\n"
-              f"property float z\nelement face {len(triangles)}\n"
+              f"property float z\n{normal_props if normals is not None else ''}"
+              f"element face {len(triangles)}\n"
               f"property list uchar int vertex_indices\nend_header\n")
     faces = np.zeros(len(triangles), dtype=[("n", "u1"), ("v", "<i4", (3,))])
     faces["n"] = 3
     faces["v"] = triangles
     with open(path, "wb") as out:
         out.write(header.encode("ascii"))
-        out.write(np.asarray(points, dtype="<f4").tobytes())
+        vertices = points if normals is None else np.hstack([points, normals])
+        out.write(np.asarray(vertices, dtype="<f4").tobytes())
         out.write(faces.tobytes())
 
 
@@ -538,15 +545,45 @@ def run_phantom(args):
 # Slicer's pipeline
 
 
+def flying_edges(image, value):
+    """The surface of one label of a vtkImageData: discrete flying edges, as Slicer's closed
+    surface representation makes it."""
+    from vtkmodules.vtkFiltersGeneral import vtkDiscreteFlyingEdges3D
+
+    fe = vtkDiscreteFlyingEdges3D()
+    fe.SetInputData(image)
+    fe.ComputeGradientsOff()
+    fe.ComputeNormalsOff()
+    fe.SetValue(0, value)
+    fe.Update()
+    return fe.GetOutput()
+
+
+def slicer_smooth(poly, iterations=20, factor=0.5):
+    """3D Slicer's smoothing of a closed surface: windowed sinc, pass band 10^(-4 factor)
+    (Slicer's default smoothing factor 0.5: pass band 0.01), coordinates normalised."""
+    from vtkmodules.vtkFiltersCore import vtkWindowedSincPolyDataFilter
+
+    smoother = vtkWindowedSincPolyDataFilter()
+    smoother.SetInputData(poly)
+    smoother.SetNumberOfIterations(iterations)
+    smoother.SetPassBand(10.0 ** (-4.0 * factor))
+    smoother.BoundarySmoothingOff()
+    smoother.FeatureEdgeSmoothingOff()
+    smoother.NonManifoldSmoothingOn()
+    smoother.NormalizeCoordinatesOn()
+    smoother.Update()
+    return smoother.GetOutput()
+
+
 def run_slicer(args):
     from vtkmodules.util import numpy_support
     from vtkmodules.vtkCommonCore import vtkSMPTools
     from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkCommonMath import vtkMatrix4x4
     from vtkmodules.vtkCommonTransforms import vtkTransform
-    from vtkmodules.vtkFiltersCore import (vtkAppendPolyData, vtkPolyDataNormals,
-                                           vtkWindowedSincPolyDataFilter)
-    from vtkmodules.vtkFiltersGeneral import vtkDiscreteFlyingEdges3D, vtkTransformPolyDataFilter
+    from vtkmodules.vtkFiltersCore import vtkAppendPolyData, vtkPolyDataNormals
+    from vtkmodules.vtkFiltersGeneral import vtkTransformPolyDataFilter
 
     vtkSMPTools.Initialize(args.threads)
     labels, lps = read_nifti(args.nifti)
@@ -577,25 +614,11 @@ def run_slicer(args):
         source = pad.GetOutput()
     surfaces = []
     for value in values:
-        fe = vtkDiscreteFlyingEdges3D()
-        fe.SetInputData(source)
-        fe.ComputeGradientsOff()
-        fe.ComputeNormalsOff()
-        fe.SetValue(0, value)
-        fe.Update()
-        smoother = vtkWindowedSincPolyDataFilter()
-        smoother.SetInputData(fe.GetOutput())
-        smoother.SetNumberOfIterations(args.iterations)
-        smoother.SetPassBand(10.0 ** (-4.0 * 0.5))
-        smoother.BoundarySmoothingOff()
-        smoother.FeatureEdgeSmoothingOff()
-        smoother.NonManifoldSmoothingOn()
-        smoother.NormalizeCoordinatesOn()
-        smoother.Update()
+        smoothed = slicer_smooth(flying_edges(source, value), args.iterations)
         transform = vtkTransform()
         transform.SetMatrix(matrix)
         to_world = vtkTransformPolyDataFilter()
-        to_world.SetInputData(smoother.GetOutput())
+        to_world.SetInputData(smoothed)
         to_world.SetTransform(transform)
         normals = vtkPolyDataNormals()
         normals.SetInputConnection(to_world.GetOutputPort())
