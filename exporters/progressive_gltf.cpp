@@ -545,7 +545,8 @@ void write_object(Json& json,
     stats.groups += model.groups.size();
     const int dag_view = buffer.add(false, table);
     const int base_view = buffer.add(false, base.bytes);
-    const int chunks_view = buffer.add(true, chunk_bytes);
+    // note: no chunks buffer view for an object without groups (glTF: byteLength >= 1)
+    const int chunks_view = chunk_bytes.empty() ? -1 : buffer.add(true, chunk_bytes);
 
     // unnamed, as the mesh: the node carries the object's name (JSON bytes)
     json["materials"].push_back(
@@ -567,15 +568,15 @@ void write_object(Json& json,
     node["name"] = name;
     node["mesh"] = json["meshes"].size() - 1;
     node["matrix"] = json_numbers(storage.matrix);
-    node["extensions"][key(format::kExtension)] = {
-        {"version", format::kVersion},
-        {"dag", dag_view},
-        {"chunks", chunks_view},
-        {"errors", std::move(errors)},
-        {"fullResolutionError",
-         format::round_up_decimal(model.full_resolution_error_px * storage.error_m_per_px,
-                                  kErrorDigits)},
-        {"gridStep", grid.step}};
+    Json ext = {{"version", format::kVersion}, {"dag", dag_view}};
+    if (chunks_view >= 0) {
+        ext["chunks"] = chunks_view;
+    }
+    ext["errors"] = std::move(errors);
+    ext["fullResolutionError"] = format::round_up_decimal(
+        model.full_resolution_error_px * storage.error_m_per_px, kErrorDigits);
+    ext["gridStep"] = grid.step;
+    node["extensions"][key(format::kExtension)] = std::move(ext);
     node["extras"] = {{"label", object.label},
                       {"volume_ml", short_decimal(object.volume_ml, kVolumeDecimals)}};
     json["nodes"].push_back(std::move(node));

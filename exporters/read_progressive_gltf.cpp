@@ -429,7 +429,10 @@ ParsedObject parse_object(const JsonReader& r,
         data.view(dag), errors.size(),
         r.name() + ": " + p.where + "/dag (buffer view " + std::to_string(dag) + ")");
     p.out.dag_bytes = data.views[dag].length;
-    p.chunks = data.view(r.index(ext, "chunks", p.where, data.views.size(), "buffer view"));
+    // note: absent when the object has no groups (a glTF buffer view cannot be empty)
+    if (ext.contains("chunks") || !errors.empty()) {
+        p.chunks = data.view(r.index(ext, "chunks", p.where, data.views.size(), "buffer view"));
+    }
     const Json& meshes = r.array(r.json(), "meshes", "");
     p.base = parse_base(r, data, r.index(node, "mesh", where, meshes.size(), "mesh"));
     p.out.base_bytes = p.base.bytes.size();

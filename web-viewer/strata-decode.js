@@ -8,8 +8,14 @@ import { kChunkAttributeIds, kDagTable, kVersion } from './strata-format.js';
 const isIndex = (v) => Number.isInteger(v) && v >= 0;
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 
+/// Byte length of an object's `chunks` buffer view (0 when it has none: no groups).
+export function chunksByteLength(info, json) {
+    return info.chunks === undefined ? 0 : json.bufferViews[info.chunks].byteLength;
+}
+
 /// Checks the JSON extension object of a node (validation point 1 and the buffer views' ranges).
-/// Returns { dag, chunks, errors, fullResolutionError, gridStep }.
+/// Returns { dag, chunks, errors, fullResolutionError, gridStep } (chunks undefined when the
+/// object has no groups).
 export function readExtension(ext, json, where = 'extension') {
     if (typeof ext !== 'object' || ext === null || Array.isArray(ext)) throw new Error(`${where}: not an object`);
     if (ext.version !== kVersion) {
@@ -17,7 +23,10 @@ export function readExtension(ext, json, where = 'extension') {
             `${where}/version: ${JSON.stringify(ext.version)}, expected ${kVersion} (a version 1 file: rebuild it with this strata)`,
         );
     }
-    for (const key of ['dag', 'chunks']) {
+    // `chunks` is absent when the object has no groups (a glTF buffer view cannot be empty)
+    const keys =
+        ext.chunks === undefined && Array.isArray(ext.errors) && ext.errors.length === 0 ? ['dag'] : ['dag', 'chunks'];
+    for (const key of keys) {
         const v = ext[key];
         const view = isIndex(v) ? json.bufferViews?.[v] : undefined;
         if (view === undefined) throw new Error(`${where}/${key}: ${JSON.stringify(v)} is not a buffer view index`);

@@ -54,7 +54,14 @@ import {
 } from './selection.js';
 import { ByteCoverage, coalesceRanges, glbLayout, meshBufferViews, progressiveNodes } from './gltf-file.js';
 import { kChunkAttributeIds, kDraco, kExtension, kThreeAttributes, kThreeClusterAttribute } from './strata-format.js';
-import { parseDagTable, readExtension, resolveSlots, shadingNormals, splitByCluster } from './strata-decode.js';
+import {
+    chunksByteLength,
+    parseDagTable,
+    readExtension,
+    resolveSlots,
+    shadingNormals,
+    splitByCluster,
+} from './strata-decode.js';
 
 const kDefaults = {
     concurrency: 4, // HTTP requests in flight
@@ -699,12 +706,7 @@ export class StrataProgressivePlugin {
                 if (object === undefined) throw new Error('not in the scene');
                 const info = readExtension(ext, json, `node ${nodeIndex} (${node.name})/extensions/${kExtension}`);
                 const bytes = new Uint8Array(await this.parser.getDependency('bufferView', info.dag));
-                const table = parseDagTable(
-                    bytes,
-                    info,
-                    json.bufferViews[info.chunks].byteLength,
-                    `node ${nodeIndex} DAG table`,
-                );
+                const table = parseDagTable(bytes, info, chunksByteLength(info, json), `node ${nodeIndex} DAG table`);
                 let base = null;
                 object.traverse((o) => {
                     const a = this.parser.associations.get(o);
@@ -930,6 +932,7 @@ export class StrataProgressivePlugin {
     stash(batch, bytes) {
         const inBatch = new Set(batch.items.map((w) => `${w.controller.nodeIndex}/${w.group}`));
         for (const controller of this.controllers) {
+            if (controller.chunksView === undefined) continue; // no groups
             const def = this.parser.json.bufferViews[controller.chunksView];
             if (def.buffer !== batch.buffer) continue;
             const base = def.byteOffset ?? 0;

@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "exporters/read_progressive_gltf.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/shading_normals.h"
 #include "phantom/catalogue.h"
@@ -176,6 +177,22 @@ const Model& torus() {
         m.frame.origin = {-120.5, 33.25, 410.0};
         m.frame.slice_spacing_px = d;
         m.frame.error_mm_per_px = 0.7;
+        return m;
+    }();
+    return model;
+}
+
+/// The torus kept at full resolution only, as the pipeline keeps a surface that failed
+/// verification: a model without groups.
+const Model& single_level_torus() {
+    static const Model model = [] {
+        Model m = torus();
+        const Phantom phantom = make_phantom("torus");
+        ReconstructOptions options;
+        options.multires.cluster_triangles = 256;
+        options.multires.max_levels = 0;
+        Report report;
+        m.result = reconstruct(phantom.stack, options, report);
         return m;
     }();
     return model;
@@ -380,7 +397,9 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
 
     // the DAG table, byte by byte as schema/README.md states it
     const std::string table = view_bytes(w, ext["dag"].get<int>());
-    const std::string chunks = view_bytes(w, ext["chunks"].get<int>());
+    // the chunks view exists exactly when there are groups (glTF buffer views are never empty)
+    ASSERT_EQ(ext.contains("chunks"), !model.groups.empty());
+    const std::string chunks = model.groups.empty() ? "" : view_bytes(w, ext["chunks"].get<int>());
     ASSERT_GE(table.size(), 16u);
     EXPECT_EQ(table.substr(0, 4), "SDAG");
     EXPECT_EQ(table_u32(table, 4), model.clusters.size());
@@ -537,6 +556,27 @@ TEST(ProgressiveGltf, GlbHoldsTheModelExactly) {
     }
 }
 
+// glTF 2.0 requires bufferView.byteLength >= 1: an object without groups has no chunks view
+// (the TotalSegmentator example's lung_middle_lobe_right had an empty one, which the Khronos
+// validator reports as an error).
+TEST(ProgressiveGltf, ObjectWithoutGroupsHasNoEmptyBufferView) {
+    const Model& m = single_level_torus();
+    ASSERT_TRUE(m.result.models.at(0).groups.empty());
+    ASSERT_GT(m.result.models[0].clusters.size(), 1u);
+    const fs::path dir = test::fresh_temp_dir("progressive_single_level");
+    write_progressive_gltf(dir / "torus.glb", objects_of(m), m.frame, info());
+    const Written w = load(dir / "torus.glb");
+    for (std::size_t v = 0; v < w.json["bufferViews"].size(); ++v) {
+        EXPECT_GE(w.json["bufferViews"][v]["byteLength"].get<std::size_t>(), 1u)
+            << "buffer view " << v;
+    }
+    expect_file_holds_model(dir / "torus.glb", m, 1.0);
+    const ProgressiveFile file = read_progressive_gltf(dir / "torus.glb");
+    ASSERT_EQ(file.objects.size(), 1u);
+    EXPECT_TRUE(file.objects[0].model.groups.empty());
+    EXPECT_EQ(file.objects[0].model.clusters.size(), m.result.models[0].clusters.size());
+}
+
 TEST(ProgressiveGltf, GltfKeepsEverythingInOneBinBesideIt) {
     const Model& m = torus();
     const fs::path dir = test::fresh_temp_dir("progressive_gltf");
@@ -601,6 +641,9 @@ TEST(ProgressiveGltfSamples, WritesValidatorSamples) {
     const Model& m = torus();
     write_progressive_gltf(fs::path(dir) / "progressive.glb", objects_of(m), m.frame, info());
     write_progressive_gltf(fs::path(dir) / "progressive.gltf", objects_of(m), m.frame, info());
+    const Model& single = single_level_torus();
+    write_progressive_gltf(fs::path(dir) / "progressive_single_level.glb", objects_of(single),
+                           single.frame, info());
 }
 
 }  // namespace

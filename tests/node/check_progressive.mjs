@@ -52,7 +52,13 @@ import {
     kThreeAttributes,
     kTypeComponents,
 } from '../../web-viewer/strata-format.js';
-import { parseDagTable, readExtension, resolveSlots, splitByCluster } from '../../web-viewer/strata-decode.js';
+import {
+    chunksByteLength,
+    parseDagTable,
+    readExtension,
+    resolveSlots,
+    splitByCluster,
+} from '../../web-viewer/strata-decode.js';
 
 const kHere = dirname(fileURLToPath(import.meta.url));
 const kSchemaDir = resolve(kHere, '../../schema');
@@ -548,8 +554,8 @@ class FileCheck {
             try {
                 const info = readExtension(ext, json, `${where}/extensions/${kExtension}`);
                 const bytes = bufferViewBytes(this.doc, info.dag);
-                table = parseDagTable(bytes, info, json.bufferViews[info.chunks].byteLength, `${where} DAG table`);
-                for (const view of [info.dag, info.chunks]) {
+                table = parseDagTable(bytes, info, chunksByteLength(info, json), `${where} DAG table`);
+                for (const view of [info.dag, info.chunks].filter((v) => v !== undefined)) {
                     if (usedViews.has(view)) fail(`buffer view ${view} (DAG table or chunks) is used by an accessor`);
                     const def = json.bufferViews[view];
                     if (def.byteStride !== undefined || def.target !== undefined) {
@@ -730,7 +736,7 @@ class FileCheck {
                 this.fail('base', `${baseLabel}: ${error.message}`);
             }
             // the chunks
-            const chunks = bufferViewBytes(this.doc, ext.chunks);
+            const chunks = ext.chunks === undefined ? new Uint8Array(0) : bufferViewBytes(this.doc, ext.chunks);
             table.groups.forEach((group, g) => {
                 const label = `${where} group ${g}`;
                 try {

@@ -61,7 +61,7 @@ function allowedIssues(json) {
         if (ext === undefined) {
             continue;
         }
-        for (const view of [ext.dag, ext.chunks]) {
+        for (const view of [ext.dag, ext.chunks].filter((v) => v !== undefined)) {
             allowed.UNUSED_OBJECT.add(`/bufferViews/${view}`);
         }
         for (const primitive of json.meshes?.[node.mesh]?.primitives ?? []) {

@@ -24,7 +24,14 @@ import { dirname, join, resolve } from 'node:path';
 import { buildDag, clusterTriangleCounts, drawnClusters, selectCut, cutStats } from '../selection.js';
 import { parseGlb, progressiveNodes } from '../gltf-file.js';
 import { kClusterAttribute, kDraco } from '../strata-format.js';
-import { decodeDraco, parseDagTable, readExtension, shadingNormals, splitByCluster } from '../strata-decode.js';
+import {
+    chunksByteLength,
+    decodeDraco,
+    parseDagTable,
+    readExtension,
+    shadingNormals,
+    splitByCluster,
+} from '../strata-decode.js';
 import { testModel } from './test-model.mjs';
 
 const kModel = testModel();
@@ -55,11 +62,7 @@ async function readModel(file) {
     const world = nodeWorldMatrices(json);
     const objects = progressiveNodes(json).map(({ nodeIndex, node, ext }) => {
         const info = readExtension(ext, json);
-        const table = parseDagTable(
-            bufferViewBytes(json, buffers, info.dag),
-            info,
-            json.bufferViews[info.chunks].byteLength,
-        );
+        const table = parseDagTable(bufferViewBytes(json, buffers, info.dag), info, chunksByteLength(info, json));
         const triangles = new Array(table.clusters.length); // cluster -> [[keyA, keyB, keyC], ...]
         const add = (clusters, decoded) => {
             const keys = [];
@@ -85,7 +88,7 @@ async function readModel(file) {
                 cluster: baseDraco.attributes[kClusterAttribute],
             }),
         );
-        const chunks = bufferViewBytes(json, buffers, info.chunks);
+        const chunks = info.chunks === undefined ? new Uint8Array(0) : bufferViewBytes(json, buffers, info.chunks);
         table.groups.forEach((g) =>
             add(g.consumed, decodeDraco(draco, chunks.subarray(g.chunkOffset, g.chunkOffset + g.chunkLength))),
         );
