@@ -80,7 +80,16 @@ export function parseRange(header, size) {
 
 /// Starts the server. model: path of a .glb or .gltf (its folder is served under /model/).
 /// Returns { server, port, url, close() }. log: function for one line per request (optional).
-export function startServer({ model, port = 8347, host = '127.0.0.1', log = null, viewerRoot = kHere } = {}) {
+/// viewerMaxAge: seconds the viewer's own files (everything outside /model/) may be cached
+/// (default 0: no-cache, every load fetches them again; a benchmark's returning visitor sets it).
+export function startServer({
+    model,
+    port = 8347,
+    host = '127.0.0.1',
+    log = null,
+    viewerRoot = kHere,
+    viewerMaxAge = 0,
+} = {}) {
     const modelFile = model ? resolve(model) : null;
     const modelRoot = modelFile ? dirname(modelFile) : null;
     const server = createServer((request, response) => {
@@ -95,7 +104,8 @@ export function startServer({ model, port = 8347, host = '127.0.0.1', log = null
             return;
         }
         let found = null;
-        if (url.pathname.startsWith('/model/')) {
+        const isModel = url.pathname.startsWith('/model/');
+        if (isModel) {
             found = modelRoot ? fileUnder(modelRoot, url.pathname.slice('/model'.length)) : null;
         } else {
             found = fileUnder(viewerRoot, url.pathname);
@@ -107,7 +117,7 @@ export function startServer({ model, port = 8347, host = '127.0.0.1', log = null
         const headers = {
             'Content-Type': kMimeTypes[extname(found.file).toLowerCase()] ?? 'application/octet-stream',
             'Accept-Ranges': 'bytes',
-            'Cache-Control': 'no-cache',
+            'Cache-Control': !isModel && viewerMaxAge > 0 ? `max-age=${viewerMaxAge}` : 'no-cache',
         };
         const range = parseRange(request.headers.range, found.size);
         if (range === 'invalid') {

@@ -83,6 +83,11 @@ const kDefaults = {
     onChange: null, // called when a chunk arrives (an app that renders on demand re-renders)
 };
 
+/// A User Timing mark (for benchmarks: web-viewer/bench/first-frame.mjs reads them).
+function mark(name) {
+    globalThis.performance?.mark?.(name);
+}
+
 // ------------------------------------------------------------------------------------------------
 // byte sources
 
@@ -641,6 +646,7 @@ export class StrataProgressivePlugin {
             [...views].filter((v) => json.bufferViews[v].buffer === 0),
             4096,
         );
+        mark('strata:base-request');
         return Promise.all(
             ranges.map(async (range) => {
                 const bytes = await this.glbRange(range.start, range.end);
@@ -691,6 +697,7 @@ export class StrataProgressivePlugin {
     }
 
     async afterRoot(result) {
+        mark('strata:after-root');
         const setupStart = performance.now();
         const json = this.parser.json;
         this.sceneRoot = result.scene;
@@ -726,6 +733,7 @@ export class StrataProgressivePlugin {
         }
         result.userData.strata = this;
         this.stats.setupMs = performance.now() - setupStart;
+        mark('strata:setup-done');
         return null;
     }
 
@@ -1139,7 +1147,8 @@ function isShown(object) {
 ///   * a server without ranges: the whole file (then chunks are decoded lazily from memory).
 /// loader: a GLTFLoader with a DRACOLoader set (the plugin is registered here, for this load
 /// only); prefixBytes: the size of the first request (GLB header and JSON; what it holds beyond
-/// them is kept, so it may also hold the base and chunks); returns the glTF result;
+/// them is kept, so it may also hold the base and chunks; Infinity: the whole file in one
+/// request without Range, as a single-rate viewer loads it); returns the glTF result;
 /// result.userData.strata is the plugin.
 export async function loadStrataModel(
     url,
@@ -1148,8 +1157,8 @@ export async function loadStrataModel(
     const doFetch = fetchFn ?? globalThis.fetch.bind(globalThis);
     const absolute = new URL(url, globalThis.location?.href ?? undefined).href;
     const basePath = LoaderUtils.extractUrlBase(absolute);
-    if (!(Number.isInteger(prefixBytes) && prefixBytes >= 20))
-        throw new Error(`prefixBytes ${prefixBytes}: expected an integer >= 20 (the GLB header)`);
+    if (!((Number.isInteger(prefixBytes) && prefixBytes >= 20) || prefixBytes === Infinity))
+        throw new Error(`prefixBytes ${prefixBytes}: expected an integer >= 20 (the GLB header) or Infinity`);
     const kPrefix = prefixBytes;
     let bytesRead = 0;
     let requests = 0;
@@ -1159,8 +1168,9 @@ export async function loadStrataModel(
     const response =
         early?.url === absolute && early.prefix === kPrefix && fetchFn === null
             ? await early.response
-            : await doFetch(absolute, { headers: { Range: `bytes=0-${kPrefix - 1}` } });
+            : await doFetch(absolute, kPrefix === Infinity ? {} : { headers: { Range: `bytes=0-${kPrefix - 1}` } });
     if (early?.url === absolute) globalThis.strataFirstRequest = null;
+    mark('strata:prefix-response');
     if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
     let prefix = await response.arrayBuffer();
     bytesRead += prefix.byteLength;
@@ -1206,7 +1216,9 @@ export async function loadStrataModel(
     const loader = createLoader();
     let plugin = null;
     loader.register((parser) => (plugin = new StrataProgressivePlugin(parser, options)));
+    mark('strata:parse');
     const gltf = await new Promise((resolve, reject) => loader.parse(data, basePath, resolve, reject));
+    mark('strata:parsed');
     plugin.stats.requests += requests;
     gltf.userData.strata ??= plugin;
     return gltf;

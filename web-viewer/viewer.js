@@ -9,6 +9,7 @@ import { DRACOLoader } from 'three/addons/loaders/DRACOLoader.js';
 import { loadStrataModel, StrataProgressivePlugin } from './strata-progressive.js';
 import { kExtension } from './strata-format.js';
 
+performance.mark('strata:viewer-module');
 const kBackground = 0x1d2129;
 performance.setResourceTimingBufferSize?.(100000); // every chunk request, for the benchmark
 const $ = (id) => document.getElementById(id);
@@ -59,7 +60,7 @@ window.addEventListener('resize', () => {
             window.innerWidth,
             window.innerHeight,
             camera.view.offsetX,
-            0,
+            camera.view.offsetY,
             window.innerWidth,
             window.innerHeight,
         );
@@ -155,8 +156,15 @@ async function openUrl(url) {
     // the model's first request may have started in index.html, before the modules loaded
     timing.loadStart = window.strataFirstRequest?.at ?? performance.now();
     $('message').textContent = `loading ${url} ...`;
-    const prefixBytes = params.has('prefix') ? Number(params.get('prefix')) : undefined;
-    const pluginOptions = params.has('memory') ? { memoryBudget: Number(params.get('memory')) } : {};
+    const prefixBytes = params.has('whole')
+        ? Infinity
+        : params.has('prefix')
+          ? Number(params.get('prefix'))
+          : undefined;
+    // plugin options from the URL (for benchmarks): ?memory=TRIANGLES, ?gap=BYTES (maxRangeGap)
+    const pluginOptions = {};
+    if (params.has('memory')) pluginOptions.memoryBudget = Number(params.get('memory'));
+    if (params.has('gap')) pluginOptions.maxRangeGap = Number(params.get('gap'));
     const result = await loadStrataModel(url, { createLoader, pluginOptions, prefixBytes });
     show(result, url.split('/').pop());
 }
@@ -186,6 +194,7 @@ function disposeModel() {
 }
 
 function show(result, name) {
+    performance.mark('strata:shown');
     disposeModel();
     gltf = result;
     strata = result.userData.strata ?? null;
@@ -206,8 +215,8 @@ function show(result, name) {
 /// Anterior view of the whole scene (glTF X = patient left, Y = superior, Z = anterior): the camera
 /// in front of the patient, looking posterior, superior up, as close as it can be while every
 /// corner of the scene's bounding box (of the base meshes, exact) is inside the part of the canvas
-/// that the side panel leaves free, with a 5 % margin; the view is shifted so that this part's
-/// centre is the orbit target.
+/// that the side panel (left) and the HUD and axes (bottom strip) leave free, with a 5 % margin;
+/// the view is shifted so that this part's centre is the orbit target.
 function fitCamera() {
     gltf.scene.updateMatrixWorld(true);
     const box = new THREE.Box3().setFromObject(gltf.scene);
@@ -220,11 +229,17 @@ function fitCamera() {
     const panel = $('side').getBoundingClientRect();
     const left = panel.right + 10 < width * 0.6 ? panel.right + 10 : 0;
     const freeWidth = width - left;
+    // the bottom strip of the HUD and the axes (at least 5 HUD lines tall), when the canvas is
+    // tall enough
+    const strip = Math.max($('axes').getBoundingClientRect().height, 80, $('hud').getBoundingClientRect().height) + 20;
+    const bottom = strip < height * 0.3 ? strip : 0;
+    const freeHeight = height - bottom;
     camera.aspect = width / height;
-    if (left > 0) camera.setViewOffset(width, height, -left / 2, 0, width, height);
+    if (left > 0 || bottom > 0) camera.setViewOffset(width, height, -left / 2, bottom / 2, width, height);
     else camera.clearViewOffset();
-    const tanY = Math.tan(THREE.MathUtils.degToRad(camera.fov) / 2) * 0.95;
-    const tanX = tanY * (freeWidth / height);
+    const tanFull = Math.tan(THREE.MathUtils.degToRad(camera.fov) / 2);
+    const tanY = tanFull * 0.95 * (freeHeight / height);
+    const tanX = tanFull * 0.95 * (freeWidth / height);
     // camera on +Z looking at -Z: a corner at (x, y, z) relative to the centre is inside when
     // |x| <= tanX (d - z) and |y| <= tanY (d - z)
     let distance = 0;
@@ -509,7 +524,10 @@ function frame(now) {
         rendered = false;
     }
     lastFrame = now;
-    if (gltf && timing.firstFrame === 0) timing.firstFrame = performance.now();
+    if (gltf && timing.firstFrame === 0) {
+        timing.firstFrame = performance.now();
+        performance.mark('strata:first-frame');
+    }
     if (gltf && timing.refined === 0 && (!strata || strata.idle) && !cutChanged) timing.refined = performance.now();
     updateHud(now);
 }

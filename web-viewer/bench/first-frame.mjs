@@ -4,15 +4,26 @@
 // page (index.html) in headless Chromium (Debian's chromium, software WebGL).
 //
 //   node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N]
-//        [--viewport WxH] [--json FILE] [--no-zoom]
+//        [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX]
 //
 // OUT: a folder written by `strata build` (OUT/model.glb, the progressive model, and OUT/scene.glb,
 // the full-resolution plain glTF). --gltf: a folder written with `--model-format gltf` from the
 // same input (its model.gltf is measured too, streaming by Range requests of the level files).
 // The single-rate Draco .glb is made here from OUT/scene.glb with glTF-Transform's draco()
 // (Edgebreaker, its default quantization: 14-bit positions, 10-bit normals).
-// Each variant runs in a fresh browser profile (no cache), on the same viewport and camera (the
-// viewer's fitted anterior view), tau 1 px, the default triangle budget:
+// The single-rate file is loaded as a single-rate viewer loads it: one request for the whole file,
+// sent from the page's first script as the progressive model's first range is (index.html ?whole).
+// Each variant runs in a fresh browser profile, on the same viewport and camera (the viewer's
+// fitted anterior view), tau 1 px (--tau), the default triangle budget, in two cache states
+// (--cache, default both):
+//   cold          nothing cached: the page, three.js (served as npm ships it: unminified and,
+//                 like the model, uncompressed), the Draco decoder and the model all come over
+//                 the emulated link;
+//   warm          a returning visitor: the page, its modules and the Draco decoder are in the
+//                 browser's cache (one visit of the page without a model before; the viewer's
+//                 files are served with max-age), the model is not;
+// and for each the times of the steps before the first frame (User Timing marks of viewer.js and
+// strata-progressive.js, Resource Timing of three.js, the decoder and the model):
 //   first frame   ms from navigation to the first frame that shows the model; model bytes then
 //   refined       ms until nothing is loading or queued (progressive) ; model bytes then
 //   redraw        intervals between drawn frames from the first frame to the refined state
@@ -31,7 +42,7 @@ import { chromiumMissing, launchChromium } from '../chromium.mjs';
 function usage(message) {
     if (message) console.error(`first-frame: ${message}`);
     console.error(
-        'usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom]',
+        'usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX]',
     );
     process.exit(2);
 }
@@ -45,6 +56,8 @@ function parseArgs(args) {
         viewport: { width: 960, height: 640 },
         json: null,
         zoom: true,
+        caches: ['cold', 'warm'],
+        tau: 1,
     };
     for (let i = 0; i < args.length; ++i) {
         const arg = args[i];
@@ -59,7 +72,14 @@ function parseArgs(args) {
             options.viewport = { width, height };
         } else if (arg === '--json') options.json = args[++i];
         else if (arg === '--no-zoom') options.zoom = false;
-        else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
+        else if (arg === '--cache') {
+            const c = args[++i];
+            if (!['cold', 'warm', 'both'].includes(c)) usage('--cache cold|warm|both');
+            options.caches = c === 'both' ? ['cold', 'warm'] : [c];
+        } else if (arg === '--tau') {
+            options.tau = Number(args[++i]);
+            if (!(options.tau > 0)) usage('--tau PX (> 0)');
+        } else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
         else if (options.out === null) options.out = arg;
         else usage('one OUT folder');
     }
@@ -100,7 +120,34 @@ function quantiles(values) {
     return { n: values.length, median: at(0.5), p95: at(0.95), max: sorted[sorted.length - 1] };
 }
 
-async function measure(url, options, label) {
+/// The steps before the first frame, ms from the navigation: the viewer's module running (page,
+/// three.js and our modules loaded), the Draco decoder's bytes, the model's first response, the
+/// glTF parsed up to the plugin's afterRoot (base bytes fetched and Draco-decoded), the plugin's
+/// setup done, the model shown (scene built), the first frame drawn.
+function breakdownInPage() {
+    const mark = (name) => performance.getEntriesByName(name, 'mark')[0]?.startTime ?? null;
+    const resources = performance.getEntriesByType('resource');
+    const end = (re) => {
+        const e = resources.filter((r) => re.test(new URL(r.name).pathname));
+        return e.length ? Math.max(...e.map((r) => r.responseEnd)) : null;
+    };
+    const model = resources
+        .filter((r) => new URL(r.name).pathname.startsWith('/model/'))
+        .sort((a, b) => a.startTime - b.startTime);
+    return {
+        three: end(/three\.(core|module)\.js$/),
+        decoder: end(/draco_decoder\.wasm$/),
+        modules: mark('strata:viewer-module'),
+        modelRequest: model[0]?.startTime ?? null,
+        modelResponse: model[0]?.responseEnd ?? null,
+        decoded: mark('strata:after-root'),
+        setup: mark('strata:setup-done'),
+        shown: mark('strata:shown'),
+        firstFrame: mark('strata:first-frame'),
+    };
+}
+
+async function measure(url, options, label, { cache, base }) {
     const browser = await launchChromium({ viewport: options.viewport });
     const errors = [];
     try {
@@ -116,6 +163,16 @@ async function measure(url, options, label) {
                 downloadThroughput: (options.throttle.mbit * 1e6) / 8,
                 uploadThroughput: (options.throttle.mbit * 1e6) / 8,
             });
+        }
+        if (cache === 'warm') {
+            // the returning visitor: the page without a model, until its decoder has arrived
+            await page.goto(base);
+            await page.waitForFunction(
+                () => performance.getEntriesByType('resource').some((r) => /draco_decoder\.wasm$/.test(r.name)),
+                null,
+                { timeout: 120000 },
+            );
+            await page.waitForTimeout(500);
         }
         await page.goto(url);
         const ok = await page.evaluate(() => window.strataViewer.ready);
@@ -135,6 +192,7 @@ async function measure(url, options, label) {
                 ticks: v.tickTimes.slice(),
             };
         });
+        first.steps = await page.evaluate(breakdownInPage);
         // zoom in
         const zoom = !options.zoom
             ? { ms: null, bytes: 0, requests: 0, stamps: [], ticks: [], state: { triangles: null } }
@@ -159,6 +217,8 @@ async function measure(url, options, label) {
         const intervals = (stamps) => stamps.slice(1).map((x, i) => x - stamps[i]);
         return {
             label,
+            cache,
+            steps: first.steps,
             triangles: first.state.triangles,
             firstFrameMs: first.firstFrameMs,
             loadStartMs: first.loadStartMs,
@@ -226,19 +286,33 @@ async function main() {
             `first-frame: single-draco.glb ${statSync(join(dir, 'single-draco.glb')).size} bytes, ` +
                 `${dracoTriangles} triangles (${Math.round(performance.now() - t0)} ms)`,
         );
-        variants.push({ label: 'single-rate Draco .glb', file: 'single-draco.glb' });
-        const server = await startServer({ model: join(dir, 'model.glb'), port: 0 });
+        variants.push({ label: 'single-rate Draco .glb', file: 'single-draco.glb', query: '&whole' });
+        const server = await startServer({ model: join(dir, 'model.glb'), port: 0, viewerMaxAge: 3600 });
         const base = server.url.replace(/\?.*$/, '');
         const results = [];
         try {
             for (let run = 0; run < options.runs; ++run) {
-                for (const variant of variants) {
-                    const url = `${base}?model=model/${encodeURIComponent(variant.file)}&aa=0${variant.query ?? '&tau=1'}`;
-                    console.error(`first-frame: ${variant.label} run ${run + 1} ...`);
-                    const r = await measure(url, variant.full ? { ...options, zoom: false } : options, variant.label);
-                    r.full = variant.full ?? false;
-                    r.fileBytes = statSync(join(dir, variant.file)).size;
-                    results.push(r);
+                for (const cache of options.caches) {
+                    for (const variant of variants) {
+                        const url =
+                            `${base}?model=model/${encodeURIComponent(variant.file)}&aa=0` +
+                            (variant.full ? '' : `&tau=${options.tau}`) +
+                            (variant.query ?? '');
+                        console.error(`first-frame: ${variant.label}, ${cache}, run ${run + 1} ...`);
+                        const r = await measure(
+                            url,
+                            variant.full ? { ...options, zoom: false } : options,
+                            variant.label,
+                            {
+                                cache,
+                                base,
+                            },
+                        );
+                        r.full = variant.full ?? false;
+                        r.run = run;
+                        r.fileBytes = statSync(join(dir, variant.file)).size;
+                        results.push(r);
+                    }
                 }
             }
         } finally {
@@ -249,16 +323,16 @@ async function main() {
             : 'loopback, unthrottled';
         console.log(
             `model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
-                `tau 1 px; Chromium software WebGL (SwiftShader)`,
+                `tau ${options.tau} px; Chromium software WebGL (SwiftShader)`,
         );
         console.log(
-            'variant                    | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms',
+            'variant                    | cache | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms',
         );
         for (const r of results) {
             const f = r.refiningFrames;
             const z = r.zoom;
             console.log(
-                `${r.label.padEnd(26)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
+                `${r.label.padEnd(26)} | ${r.cache.padEnd(5)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
                     `${fmtMB(r.firstFrameBytes).padStart(9)} | ${String(r.triangles).padStart(12)} | ${fmtMs(r.refinedMs).padStart(10)} | ` +
                     `${fmtMB(r.refinedBytes).padStart(10)} | ${fmtMs(f.median)}/${fmtMs(f.p95)}/${fmtMs(f.max)} (${f.n}) | ` +
                     `${fmtMs(z.ms)}, ${fmtMB(z.bytes)}, ${z.triangles} | ${fmtMs(z.frames.median)}/${fmtMs(z.frames.p95)}/${fmtMs(z.frames.max)} (${z.frames.n}) | ` +
@@ -266,28 +340,46 @@ async function main() {
                     (r.errors.length ? `  ERRORS: ${r.errors.slice(0, 2).join('; ')}` : ''),
             );
         }
+        console.log(
+            'steps before the first frame, ms from the navigation (three.js and decoder: bytes arrived; modules: viewer.js running; ' +
+                "model: first request sent, first response complete; decoded: the base fetched and Draco-decoded, the plugin's afterRoot; " +
+                'setup: the plugin ready; shown: the scene built; first frame drawn)',
+        );
+        console.log(
+            'variant                    | cache | three.js | decoder | modules | model req | model resp | decoded | setup | shown | 1st frame',
+        );
+        for (const r of results.filter((x) => !x.full)) {
+            const t = r.steps;
+            console.log(
+                `${r.label.padEnd(26)} | ${r.cache.padEnd(5)} | ${fmtMs(t.three).padStart(8)} | ${fmtMs(t.decoder).padStart(7)} | ` +
+                    `${fmtMs(t.modules).padStart(7)} | ${fmtMs(t.modelRequest).padStart(9)} | ${fmtMs(t.modelResponse).padStart(10)} | ` +
+                    `${fmtMs(t.decoded).padStart(7)} | ${fmtMs(t.setup).padStart(5)} | ${fmtMs(t.shown).padStart(5)} | ${fmtMs(t.firstFrame).padStart(9)}`,
+            );
+        }
         // the issue's targets, against the time to show the single-rate Draco file (its first
         // frame); times from the navigation (page and decoder included) and from the model's
         // first request (the viewer's own code, the same for every variant, excluded)
         for (let run = 0; run < options.runs; ++run) {
-            const of = (label) => results.filter((r) => r.label === label)[run];
-            const single = of('single-rate Draco .glb');
-            const progressive = of('progressive .glb (ranges)');
-            const full = of('progressive, all refined');
-            for (const [name, zero] of [
-                ['from navigation', () => 0],
-                ['from the model request', (r) => r.loadStartMs],
-            ]) {
-                const t = single.firstFrameMs - zero(single);
-                const ratio = (r, ms) => ((ms - zero(r)) / t).toFixed(2);
-                console.log(
-                    `run ${run + 1}, ${name}: single-rate Draco shown at ${fmtMs(t)} ms (${fmtMB(single.fileBytes)} MB); ` +
-                        `progressive first frame ${ratio(progressive, progressive.firstFrameMs)}x (target <= 0.25), ` +
-                        `settled at tau 1 ${ratio(progressive, progressive.refinedMs)}x (<= 1.0) with ` +
-                        `${((100 * progressive.refinedBytes) / single.fileBytes).toFixed(0)} % of its bytes (< 60 %), ` +
-                        `all refined ${ratio(full, full.refinedMs)}x (<= 1.6) with ${((100 * full.refinedBytes) / single.fileBytes).toFixed(0)} %, ` +
-                        `${full.triangles} triangles (single-rate ${dracoTriangles})`,
-                );
+            for (const cache of options.caches) {
+                const of = (label) => results.find((r) => r.label === label && r.run === run && r.cache === cache);
+                const single = of('single-rate Draco .glb');
+                const progressive = of('progressive .glb (ranges)');
+                const full = of('progressive, all refined');
+                for (const [name, zero] of [
+                    ['from navigation', () => 0],
+                    ['from the model request', (r) => r.loadStartMs],
+                ]) {
+                    const t = single.firstFrameMs - zero(single);
+                    const ratio = (r, ms) => ((ms - zero(r)) / t).toFixed(2);
+                    console.log(
+                        `run ${run + 1}, ${cache}, ${name}: single-rate Draco shown at ${fmtMs(t)} ms (${fmtMB(single.fileBytes)} MB); ` +
+                            `progressive first frame ${ratio(progressive, progressive.firstFrameMs)}x (target <= 0.25), ` +
+                            `settled at tau ${options.tau} ${ratio(progressive, progressive.refinedMs)}x (<= 1.0) with ` +
+                            `${((100 * progressive.refinedBytes) / single.fileBytes).toFixed(0)} % of its bytes (< 60 %), ` +
+                            `all refined ${ratio(full, full.refinedMs)}x (<= 1.6) with ${((100 * full.refinedBytes) / single.fileBytes).toFixed(0)} %, ` +
+                            `${full.triangles} triangles (single-rate ${dracoTriangles})`,
+                    );
+                }
             }
         }
         if (options.json) writeFileSync(options.json, JSON.stringify({ options, results }, null, 2));
