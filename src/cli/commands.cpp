@@ -11,12 +11,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli/build_summary.h"
 #include "cli/output_folder.h"
 #include "contours/contour_stats.h"
 #include "core/atomic_write.h"
 #include "core/error.h"
 #include "core/file_names.h"
 #include "core/report.h"
+#include "core/version.h"
 #include "debug/draw_contours.h"
 #include "debug/draw_medial.h"
 #include "exporters/detail/meshopt_scene.h"
@@ -39,7 +41,6 @@ namespace strata::cli {
 
 namespace {
 
-using Json = nlohmann::ordered_json;
 using Clock = std::chrono::steady_clock;
 
 /// Progress on a terminal: one line on stderr rewritten in place, at most ~10 times a second.
@@ -76,124 +77,6 @@ private:
     bool open_ = false;
     Clock::time_point last_{};
 };
-
-struct LabelStats {
-    std::uint64_t voxels = 0;
-    std::uint32_t first_slice = 0;
-    std::uint32_t last_slice = 0;
-    std::uint32_t slices = 0;
-};
-
-std::vector<LabelStats> label_stats(const SliceStack& stack) {
-    std::vector<int> index(65536, -1);
-    for (std::size_t i = 0; i < stack.label_table.size(); ++i) {
-        index[stack.label_table[i].value] = static_cast<int>(i);
-    }
-    std::vector<LabelStats> stats(stack.label_table.size());
-    std::vector<std::uint32_t> last_seen(stats.size(), UINT32_MAX);
-    for (std::uint32_t k = 0; k < stack.depth; ++k) {
-        for (std::uint16_t v : stack.slice(k)) {
-            const int l = index[v];
-            if (l < 0) {
-                continue;
-            }
-            LabelStats& s = stats[l];
-            if (s.voxels == 0) {
-                s.first_slice = k;
-            }
-            ++s.voxels;
-            if (last_seen[l] != k) {
-                last_seen[l] = k;
-                s.last_slice = k;
-                ++s.slices;
-            }
-        }
-    }
-    return stats;
-}
-
-Json stack_json(const SliceStack& stack) {
-    Json j;
-    j["source"] = stack.source;
-    j["source_frame"] = stack.source_frame;
-    j["dims"] = {stack.width, stack.height, stack.depth};
-    const Vec3 spacing = stack.spacing_mm();
-    j["spacing_mm"] = {spacing.x, spacing.y, spacing.z};
-    Json affine = Json::array();
-    for (int r = 0; r < 3; ++r) {
-        const auto& row = stack.index_to_world.linear[r];
-        affine.push_back({row[0], row[1], row[2], stack.index_to_world.translation[r]});
-    }
-    affine.push_back({0, 0, 0, 1});
-    j["index_to_world_lps_mm"] = affine;
-    const double voxel_ml = spacing.x * spacing.y * spacing.z / 1000.0;
-    const std::vector<LabelStats> stats = label_stats(stack);
-    Json labels = Json::array();
-    for (std::size_t i = 0; i < stack.label_table.size(); ++i) {
-        const LabelInfo& l = stack.label_table[i];
-        Json e;
-        e["value"] = l.value;
-        e["name"] = l.name;
-        e["color_srgb"] = {l.color[0], l.color[1], l.color[2]};
-        e["voxels"] = stats[i].voxels;
-        e["slices"] = stats[i].slices;
-        e["first_slice"] = stats[i].first_slice;
-        e["last_slice"] = stats[i].last_slice;
-        e["volume_ml"] = static_cast<double>(stats[i].voxels) * voxel_ml;
-        labels.push_back(e);
-    }
-    j["labels"] = labels;
-    return j;
-}
-
-Json warnings_json(const Report& report) {
-    Json w = Json::array();
-    for (const Warning& warning : report.warnings) {
-        w.push_back(
-            {{"stage", warning.stage}, {"where", warning.where}, {"message", warning.message}});
-    }
-    return w;
-}
-
-std::string format_vec(Vec3 v) {
-    char buf[96];
-    std::snprintf(buf, sizeof(buf), "%g x %g x %g", v.x, v.y, v.z);
-    return buf;
-}
-
-void print_stack(std::ostream& out, const SliceStack& stack) {
-    out << "input:   " << stack.source << " (frame " << stack.source_frame << ")\n";
-    out << "dims:    " << stack.width << " x " << stack.height << " x " << stack.depth << '\n';
-    out << "spacing: " << format_vec(stack.spacing_mm()) << " mm\n";
-    out << "affine (voxel index -> LPS mm):\n";
-    for (int r = 0; r < 3; ++r) {
-        char buf[160];
-        const auto& row = stack.index_to_world.linear[r];
-        std::snprintf(buf, sizeof(buf), "  [%10.5g %10.5g %10.5g | %10.5g]\n", row[0], row[1],
-                      row[2], stack.index_to_world.translation[r]);
-        out << buf;
-    }
-    const std::vector<LabelStats> stats = label_stats(stack);
-    const Vec3 spacing = stack.spacing_mm();
-    const double voxel_ml = spacing.x * spacing.y * spacing.z / 1000.0;
-    out << "labels:  " << stack.label_table.size() << '\n';
-    for (std::size_t i = 0; i < stack.label_table.size(); ++i) {
-        const LabelInfo& l = stack.label_table[i];
-        char buf[256];
-        std::snprintf(buf, sizeof(buf),
-                      "  %5u  %-32s  #%02x%02x%02x  %9llu voxels  slices %u-%u  %.2f mL\n",
-                      unsigned(l.value), l.name.c_str(), l.color[0], l.color[1], l.color[2],
-                      static_cast<unsigned long long>(stats[i].voxels), stats[i].first_slice,
-                      stats[i].last_slice, static_cast<double>(stats[i].voxels) * voxel_ml);
-        out << buf;
-    }
-}
-
-void print_warnings(std::ostream& out, const Report& report) {
-    for (const Warning& w : report.warnings) {
-        out << "strata: warning: " << w.stage << ": " << w.where << ": " << w.message << '\n';
-    }
-}
 
 double seconds_since(Clock::time_point start) {
     return std::chrono::duration<double>(Clock::now() - start).count();
@@ -361,7 +244,7 @@ int write_extracted(const ExtractOptions& options,
     const Json summary = {{"output", options.output.string()},
                           {"max_error_mm", max_error_mm},
                           {"objects", objects},
-                          {"warnings", warnings_json(report)}};
+                          {"warnings", warnings_json(report.warnings)}};
     if (options.output_options.json) {
         std::cout << summary.dump(2) << '\n';
     } else if (!options.output_options.quiet) {
@@ -377,7 +260,7 @@ int write_extracted(const ExtractOptions& options,
         std::cout << "wrote " << options.output.string() << '\n';
     }
     if (!options.output_options.quiet) {
-        print_warnings(std::cerr, report);
+        print_warnings(std::cerr, report.warnings);
     }
     return 0;
 }
@@ -460,7 +343,7 @@ int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
     }
     SceneInfo info;
     info.source = options.input;
-    info.generator = "strata 0.1.0";
+    info.generator = kGenerator;
     return write_extracted(options, scene, objects, info, bound.value, report);
 }
 
@@ -597,12 +480,12 @@ LodRequest parse_lod_levels(const std::string& text) {
 }
 
 /// Writes OUTPUT/lods.glb for `request`; returns its summary.
-Json write_lods(const BuildOptions& options,
-                const LodRequest& request,
-                const std::vector<ProgressiveObject>& progressive,
-                const SliceFrame& frame,
-                const SceneInfo& info,
-                const StagedOutputFolder& out) {
+LodSummary write_lods(const BuildOptions& options,
+                      const LodRequest& request,
+                      const std::vector<ProgressiveObject>& progressive,
+                      const SliceFrame& frame,
+                      const SceneInfo& info,
+                      const StagedOutputFolder& out) {
     LodOptions lod;
     lod.level_count = request.count;
     for (const ErrorBound& b : request.bounds) {
@@ -622,46 +505,36 @@ Json write_lods(const BuildOptions& options,
     for (const ProgressiveObject& p : progressive) {
         objects.push_back({p.name, p.label, p.srgb, p.model});
     }
-    const std::filesystem::path file = options.output_dir / "lods.glb";
-    const LodStats stats = write_lod_gltf(out.staged(file), objects, frame, info, lod);
-    Json j = {{"file", file.string()},
-              {"compression", options.lod_compression},
-              {"total_bytes", stats.total_bytes}};
-    Json list = Json::array();
+    LodSummary summary;
+    summary.file = options.output_dir / "lods.glb";
+    summary.compression = options.lod_compression;
+    const LodStats stats = write_lod_gltf(out.staged(summary.file), objects, frame, info, lod);
+    summary.total_bytes = stats.total_bytes;
     for (std::size_t o = 0; o < objects.size(); ++o) {
-        Json levels = Json::array();
-        for (const LodLevelStats& l : stats.objects[o]) {
-            levels.push_back({{"error_mm", l.error_mm},
-                              {"triangles", l.triangles},
-                              {"vertices", l.vertices},
-                              {"bytes", l.bytes},
-                              {"model_level", l.model_level}});
-        }
-        list.push_back(
-            {{"name", objects[o].name}, {"label", objects[o].label}, {"levels", levels}});
+        summary.objects.push_back({objects[o].name, objects[o].label, stats.objects[o]});
     }
-    j["objects"] = list;
-    return j;
+    return summary;
 }
 
-}  // namespace
+/// The input of `strata build` and the reconstruction of it.
+struct BuildInput {
+    SliceStack stack;
+    Reconstruction result;
+    double input_seconds = 0.0;  ///< reading and cleaning the input
+};
 
-int run_build(const BuildOptions& options) {
+/// Reads the input (a label stack, planar contours or the built-in phantom) and runs the
+/// pipeline on it.
+BuildInput read_and_reconstruct(const BuildOptions& options,
+                                TerminalProgress& progress,
+                                Report& report) {
     const auto start = Clock::now();
-    // note: the output folder is checked and locked before any work; every output goes into
-    // its staging folder, which replaces it at the end (all or nothing)
-    StagedOutputFolder out(options.output_dir);
-    const LodRequest lod_request = parse_lod_levels(options.lod_levels);
-    Report report;
-    TerminalProgress progress(options.output.quiet || options.output.json);
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
     reconstruct_options.multires.cluster_triangles = options.cluster_triangles;
     reconstruct_options.progress = progress.callback();
-    SliceStack stack;
-    Reconstruction result;
-    double input_seconds = 0.0;
+    BuildInput in;
     if (!options.input.empty() && is_planar_contour_file(options.input)) {
         // Planar contours (RTSTRUCT, contour JSON): one reconstruction per structure, gathered
         // in the contours' common frame.
@@ -674,9 +547,9 @@ int run_build(const BuildOptions& options) {
         ContourGridOptions grid;
         grid.pitch_mm = options.contour_pitch_mm;
         ContourFrame frame = contour_frame(contours, grid, report);
-        input_seconds = seconds_since(start);
-        result = reconstruct_contours(contours, frame, grid, reconstruct_options, report);
-        stack = std::move(frame.stack);
+        in.input_seconds = seconds_since(start);
+        in.result = reconstruct_contours(contours, frame, grid, reconstruct_options, report);
+        in.stack = std::move(frame.stack);
     } else {
         if (!options.reference_ct.empty() || options.contour_pitch_mm > 0.0) {
             throw Error(ErrorCode::InvalidInput,
@@ -684,36 +557,60 @@ int run_build(const BuildOptions& options) {
                         "(DICOM RTSTRUCT or contour JSON), not to '" +
                             options.input + "'");
         }
-        stack = load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
-                           options.labels, progress, report, options.allow_data_file);
-        input_seconds = seconds_since(start);
-        result = reconstruct(stack, reconstruct_options, report);
+        in.stack =
+            load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
+                       options.labels, progress, report, options.allow_data_file);
+        in.input_seconds = seconds_since(start);
+        in.result = reconstruct(in.stack, reconstruct_options, report);
     }
     progress.finish();
+    return in;
+}
 
-    if (!options.debug_dir.empty() && stack.depth > 0) {
-        const DebugView view = debug_view(stack);
-        for (std::uint32_t k = 0; k < stack.depth; ++k) {
-            char name[48];
-            std::snprintf(name, sizeof(name), "contours_%04u.png", k);
-            write_rgb_png(draw_slice_contours(stack, result.contours, k, view),
-                          out.staged(options.debug_dir / name));
-        }
-        for (std::uint32_t k = 0; k + 1 < stack.depth; ++k) {
-            char name[48];
-            std::snprintf(name, sizeof(name), "medial_%04u_%04u.png", k, k + 1);
-            write_rgb_png(draw_medial_axis(result.contours.slices[k], result.contours.slices[k + 1],
-                                           result.fields[k], result.fields[k + 1],
-                                           result.medial_axes[k], view),
-                          out.staged(options.debug_dir / name));
-        }
+/// --debug-dir: the contours of every slice and the medial axis of every slice pair as PNGs.
+void write_debug_pictures(const std::filesystem::path& debug_dir,
+                          const SliceStack& stack,
+                          const Reconstruction& result,
+                          const StagedOutputFolder& out) {
+    if (debug_dir.empty() || stack.depth == 0) {
+        return;
     }
+    const DebugView view = debug_view(stack);
+    for (std::uint32_t k = 0; k < stack.depth; ++k) {
+        char name[48];
+        std::snprintf(name, sizeof(name), "contours_%04u.png", k);
+        write_rgb_png(draw_slice_contours(stack, result.contours, k, view),
+                      out.staged(debug_dir / name));
+    }
+    for (std::uint32_t k = 0; k + 1 < stack.depth; ++k) {
+        char name[48];
+        std::snprintf(name, sizeof(name), "medial_%04u_%04u.png", k, k + 1);
+        write_rgb_png(
+            draw_medial_axis(result.contours.slices[k], result.contours.slices[k + 1],
+                             result.fields[k], result.fields[k + 1], result.medial_axes[k], view),
+            out.staged(debug_dir / name));
+    }
+}
 
-    // Surfaces: one mesh file per object, the progressive scene, and the full-resolution scene
-    // as a plain glTF.
-    const auto export_start = Clock::now();
+/// What the files of `stack` say they were made by and from.
+SceneInfo scene_info(const SliceStack& stack) {
+    SceneInfo info;
+    info.source = stack.source;
+    const Vec3 spacing = stack.spacing_mm();
+    info.spacing_mm = {spacing.x, spacing.y, spacing.z};
+    info.generator = kGenerator;
+    return info;
+}
+
+/// Per surface: its mesh in patient LPS mm written to OUTPUT/meshes/, and its summary (checked
+/// in mm, with the levels of its model). Returns the scene objects, one per surface.
+std::vector<SceneObject> write_surface_meshes(const BuildOptions& options,
+                                              const SliceStack& stack,
+                                              const Reconstruction& result,
+                                              const StagedOutputFolder& out,
+                                              BuildSummary& summary,
+                                              Report& report) {
     std::vector<SceneObject> scene;
-    std::vector<Json> surface_json;
     std::vector<std::string> stems;
     const double mm_per_px = error_mm_per_px(stack);
     for (std::size_t i = 0; i < result.surfaces.size(); ++i) {
@@ -730,53 +627,48 @@ int run_build(const BuildOptions& options) {
                 object.mesh, out.staged(mesh_file),
                 options.mesh_format == "stl" ? std::vector<Vec3>{} : shading_normals(object.mesh));
         }
-        Json genus = Json::array();
-        for (const int g : component_genera(check)) {
-            genus.push_back(g);
-        }
-        Json j = {{"label", surface.label},
-                  {"file", mesh_file.string()},
-                  {"vertices", object.mesh.positions.size()},
-                  {"triangles", object.mesh.triangles.size()},
-                  {"components", check.components.size()},
-                  {"genus", genus},
-                  {"closed_manifold", is_closed_manifold(check)},
-                  {"volume_ml", check.signed_volume / 1000.0},
-                  {"slabs", surface.slabs},
-                  {"caps", surface.caps},
-                  {"steiner_points", surface.steiner_points},
-                  {"fallback_corner_slices", surface.at_corners.size()},
-                  {"fallback_unsimplified_slices", surface.unsimplified_slices},
-                  {"fallback_split_slabs", surface.split_slabs},
-                  {"verified", surface.verification.ok()},
-                  {"topology_mismatches", surface.topology_mismatches},
-                  {"failed_slabs", surface.failed_slabs}};
+        SurfaceSummary s = summarize_surface(surface, check, mesh_file);
         if (i < result.models.size()) {
-            const MultiresMesh& model = result.models[i];
-            Json levels = Json::array();
-            for (std::uint32_t level = 0; level < level_count(model); ++level) {
-                const MultiresCut cut = select_cut_at_level(model, level);
-                std::size_t triangles = 0;
-                for (const std::uint32_t c : cut.clusters) {
-                    triangles += model.clusters[c].triangles.size();
-                }
-                levels.push_back({{"level", level},
-                                  {"triangles", triangles},
-                                  {"clusters", cut.clusters.size()},
-                                  {"error_px", cut.error_px},
-                                  {"error_mm", cut.error_px * mm_per_px}});
-            }
-            j["levels"] = levels;
-            j["groups"] = model.groups.size();
+            s.levels = summarize_levels(result.models[i], mm_per_px);
+            s.groups = result.models[i].groups.size();
         }
-        if (!is_closed_manifold(check)) {
-            j["problems"] = check.problems;
+        if (!s.closed_manifold) {
             report.warn("triangulate", object.name,
                         "the surface is not a closed manifold: " + check.problems.front());
         }
-        surface_json.push_back(j);
+        summary.surfaces.push_back(std::move(s));
         scene.push_back(std::move(object));
     }
+    return scene;
+}
+
+}  // namespace
+
+int run_build(const BuildOptions& options) {
+    // note: the output folder is checked and locked before any work; every output goes into
+    // its staging folder, which replaces it at the end (all or nothing)
+    StagedOutputFolder out(options.output_dir);
+    const LodRequest lod_request = parse_lod_levels(options.lod_levels);
+    Report report;
+    TerminalProgress progress(options.output.quiet || options.output.json);
+    const BuildInput in = read_and_reconstruct(options, progress, report);
+    const SliceStack& stack = in.stack;
+    const Reconstruction& result = in.result;
+    write_debug_pictures(options.debug_dir, stack, result, out);
+
+    BuildSummary summary;
+    summary.input = summarize_input(stack);
+    summary.tolerance_px = result.contours.tolerance_px;
+    summary.contour_stats = contour_stats(result.contours);
+    summary.objects = summarize_objects(stack, result, summary.contour_stats);
+    summary.slice_spacing_px = result.slice_spacing_px;
+    summary.output_dir = options.output_dir;
+
+    // Surfaces: one mesh file per object, the progressive scene, and the full-resolution scene
+    // as a plain glTF.
+    const auto export_start = Clock::now();
+    const std::vector<SceneObject> scene =
+        write_surface_meshes(options, stack, result, out, summary, report);
     // The progressive scene: every object whose surface lies on a grid (all but those the
     // quantize stage had to leave unsnapped, which the report names).
     std::vector<ProgressiveObject> progressive;
@@ -795,33 +687,24 @@ int run_build(const BuildOptions& options) {
         object.name = scene[i].name;
         object.label = scene[i].label;
         object.srgb = scene[i].srgb;
-        object.volume_ml = surface_json[i]["volume_ml"].get<double>();
+        object.volume_ml = summary.surfaces[i].volume_ml;
         object.model = &result.models[i];
         progressive.push_back(object);
     }
-    const std::filesystem::path model_file = options.output_dir / ("model." + options.model_format);
-    ProgressiveStats model_stats;
+    const SceneInfo info = scene_info(stack);
+    const SliceFrame frame = slice_frame(stack, result.slice_spacing_px);
     if (!progressive.empty()) {
-        SceneInfo info;
-        info.source = stack.source;
-        const Vec3 spacing = stack.spacing_mm();
-        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
-        info.generator = "strata 0.1.0";
+        ModelSummary model;
+        model.file = options.output_dir / ("model." + options.model_format);
+        model.objects = progressive.size();
         ProgressiveOptions export_options;
         export_options.threads = options.threads;
-        model_stats = write_progressive_gltf(out.staged(model_file), progressive,
-                                             slice_frame(stack, result.slice_spacing_px), info,
+        model.stats = write_progressive_gltf(out.staged(model.file), progressive, frame, info,
                                              export_options);
+        summary.model = model;
     }
-    Json lods_json;
     if (lod_request.wanted && !progressive.empty()) {
-        SceneInfo info;
-        info.source = stack.source;
-        const Vec3 spacing = stack.spacing_mm();
-        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
-        info.generator = "strata 0.1.0";
-        lods_json = write_lods(options, lod_request, progressive,
-                               slice_frame(stack, result.slice_spacing_px), info, out);
+        summary.lods = write_lods(options, lod_request, progressive, frame, info, out);
     }
     const double export_seconds = seconds_since(export_start);
 
@@ -829,11 +712,6 @@ int run_build(const BuildOptions& options) {
     const bool any_triangles = std::any_of(
         scene.begin(), scene.end(), [](const SceneObject& o) { return !o.mesh.triangles.empty(); });
     if (any_triangles) {
-        SceneInfo info;
-        info.source = stack.source;
-        const Vec3 spacing = stack.spacing_mm();
-        info.spacing_mm = {spacing.x, spacing.y, spacing.z};
-        info.generator = "strata 0.1.0";
         if (options.scene_meshopt) {
             detail::write_meshopt_scene(out.staged(scene_file), scene,
                                         info);  // EXT_meshopt_compression
@@ -842,150 +720,27 @@ int run_build(const BuildOptions& options) {
             scene_options.draco = !options.scene_uncompressed;
             write_scene_gltf(out.staged(scene_file), scene, info, scene_options);
         }
+        summary.scene = scene_file;
     }
 
-    Json summary;
-    summary["strata_version"] = "0.1.0";
-    summary["input"] = stack_json(stack);
-    const std::vector<LabelContourStats> stats = contour_stats(result.contours);
-    Json objects = Json::array();
-    for (const LabelInfo& label : stack.label_table) {
-        Json o;
-        o["label"] = label.value;
-        o["name"] = label.name;
-        const auto it = std::find_if(stats.begin(), stats.end(), [&](const LabelContourStats& s) {
-            return s.label == label.value;
-        });
-        const LabelContourStats s = it != stats.end() ? *it : LabelContourStats{};
-        o["contours"] = {{"contours", s.contours},
-                         {"holes", s.holes},
-                         {"slices", s.slices},
-                         {"max_nesting_depth", s.max_depth},
-                         {"points_original", s.points_original},
-                         {"points_simplified", s.points_simplified},
-                         {"max_deviation_px", s.max_deviation_px},
-                         {"tolerance_px", result.contours.tolerance_px},
-                         {"links", s.links},
-                         {"hole_links", s.hole_links}};
-        std::uint64_t curves = 0;
-        std::uint64_t medial_points = 0;
-        std::uint64_t unmatched_runs = 0;
-        std::uint64_t unmatched_points = 0;
-        for (const MedialAxis& axis : result.medial_axes) {
-            for (const MedialCurve& curve : axis.curves) {
-                if (curve.label == label.value) {
-                    ++curves;
-                    medial_points += curve.points.size();
-                }
-            }
-            for (const UnmatchedRun& run : axis.unmatched) {
-                const auto& set = result.contours.slices[axis.lower_slice + (run.on_upper ? 1 : 0)];
-                if (set.contours[run.contour].label == label.value) {
-                    ++unmatched_runs;
-                    unmatched_points += run.count;
-                }
-            }
-        }
-        o["medial"] = {{"curves", curves},
-                       {"points", medial_points},
-                       {"unmatched_runs", unmatched_runs},
-                       {"unmatched_points", unmatched_points}};
-        for (const Json& surface : surface_json) {
-            if (surface["label"] == label.value) {
-                o["surface"] = surface;
-            }
-        }
-        objects.push_back(o);
-    }
-    summary["objects"] = objects;
-    if (any_triangles) {
-        summary["scene"] = scene_file.string();
-    }
-    if (!progressive.empty()) {
-        summary["model"] = {{"file", model_file.string()},
-                            {"objects", progressive.size()},
-                            {"total_bytes", model_stats.total_bytes},
-                            {"base_bytes", model_stats.base_bytes},
-                            {"chunk_bytes", model_stats.chunk_bytes},
-                            {"chunks", model_stats.chunks}};
-    }
-    if (!lods_json.is_null()) {
-        summary["lods"] = lods_json;
-    }
-    summary["output_dir"] = options.output_dir.string();
-    Json timings = {{"input", input_seconds}};
+    summary.timings.push_back({"input", in.input_seconds});
     for (const StageTiming& t : result.timings) {
-        timings[t.stage] = t.seconds;
+        summary.timings.push_back({t.stage, t.seconds});
     }
-    timings["export"] = export_seconds;
-    summary["timings_s"] = timings;
-    summary["warnings"] = warnings_json(report);
-    const std::filesystem::path summary_file = options.output_dir / "summary.json";
-    write_file_atomically(out.staged(summary_file), summary.dump(2) + "\n");
+    summary.timings.push_back({"export", export_seconds});
+    summary.warnings = report.warnings;
+    summary.summary_file = options.output_dir / "summary.json";
+    const std::string summary_text = build_summary_json(summary);
+    write_file_atomically(out.staged(summary.summary_file), summary_text);
     out.commit();
 
     if (options.output.json) {
-        std::cout << summary.dump(2) << '\n';
+        std::cout << summary_text;
     } else if (!options.output.quiet) {
-        print_stack(std::cout, stack);
-        std::cout << "contours (tolerance " << result.contours.tolerance_px << " px):\n";
-        for (const LabelContourStats& s : stats) {
-            char buf[256];
-            std::snprintf(buf, sizeof(buf),
-                          "  %5u  %6u contours (%u holes) on %u slices, %llu -> %llu points, "
-                          "max deviation %.3f px\n",
-                          unsigned(s.label), s.contours, s.holes, s.slices,
-                          static_cast<unsigned long long>(s.points_original),
-                          static_cast<unsigned long long>(s.points_simplified), s.max_deviation_px);
-            std::cout << buf;
-        }
-        std::cout << "surfaces (slice spacing " << result.slice_spacing_px << " px):\n";
-        for (const Json& j : surface_json) {
-            char buf[320];
-            std::snprintf(
-                buf, sizeof(buf),
-                "  %5u  %8zu triangles, %zu component(s), %s, %.2f mL, %u fallback "
-                "slice(s), %u mismatch(es) -> %s\n",
-                unsigned(j["label"].get<int>()), j["triangles"].get<std::size_t>(),
-                j["components"].get<std::size_t>(),
-                j["closed_manifold"].get<bool>() ? "closed manifold" : "NOT CLOSED",
-                j["volume_ml"].get<double>(), j["fallback_unsimplified_slices"].get<unsigned>(),
-                j["topology_mismatches"].get<unsigned>(), j["file"].get<std::string>().c_str());
-            std::cout << buf;
-            if (j.contains("levels")) {
-                std::cout << "         levels (triangles, error mm):";
-                for (const Json& level : j["levels"]) {
-                    std::snprintf(buf, sizeof(buf), " %zu %.3g",
-                                  level["triangles"].get<std::size_t>(),
-                                  level["error_mm"].get<double>());
-                    std::cout << (level["level"] == 0 ? "" : " ->") << buf;
-                }
-                std::cout << '\n';
-            }
-        }
-        if (!progressive.empty()) {
-            char buf[256];
-            std::snprintf(buf, sizeof(buf),
-                          "model: %s (%zu bytes: base %zu, %zu refinement chunks %zu)\n",
-                          model_file.string().c_str(), model_stats.total_bytes,
-                          model_stats.base_bytes, model_stats.chunks, model_stats.chunk_bytes);
-            std::cout << buf;
-        }
-        if (any_triangles) {
-            std::cout << "scene: " << scene_file.string() << '\n';
-        }
-        if (!lods_json.is_null()) {
-            std::cout << "lods: " << lods_json["file"].get<std::string>() << " ("
-                      << lods_json["total_bytes"] << " bytes, " << options.lod_compression << ")\n";
-        }
-        std::cout << "timings: input " << input_seconds << " s";
-        for (const StageTiming& t : result.timings) {
-            std::cout << ", " << t.stage << ' ' << t.seconds << " s";
-        }
-        std::cout << "\nwrote " << summary_file.string() << '\n';
+        print_build_report(std::cout, summary);
     }
     if (!options.output.quiet) {
-        print_warnings(std::cerr, report);
+        print_warnings(std::cerr, report.warnings);
     }
     return 0;
 }
@@ -1056,7 +811,7 @@ int run_extract(const ExtractOptions& options) {
     info.source = stack.source;
     const Vec3 spacing = stack.spacing_mm();
     info.spacing_mm = {spacing.x, spacing.y, spacing.z};
-    info.generator = "strata 0.1.0";
+    info.generator = kGenerator;
     return write_extracted(options, scene, objects, info, max_error_px * mm_per_px, report);
 }
 
@@ -1091,11 +846,11 @@ int run_phantom(const PhantomCommandOptions& options) {
         j["phantom"] = phantom.name;
         j["description"] = phantom.description;
         j["written"] = written;
-        j["stack"] = stack_json(phantom.stack);
+        j["stack"] = input_json(summarize_input(phantom.stack));
         std::cout << j.dump(2) << '\n';
     } else if (!options.output_options.quiet) {
         std::cout << phantom.name << ": " << phantom.description << '\n';
-        print_stack(std::cout, phantom.stack);
+        print_input(std::cout, summarize_input(phantom.stack));
         std::cout << "wrote " << written << '\n';
     }
     return 0;
@@ -1130,7 +885,7 @@ int info_of_contours(const InfoOptions& options) {
               {"frame", contours.frame},
               {"plane_normal", {contours.normal.x, contours.normal.y, contours.normal.z}},
               {"structures", objects},
-              {"warnings", warnings_json(report)}};
+              {"warnings", warnings_json(report.warnings)}};
     if (contours.reference) {
         const PlaneGrid& g = *contours.reference;
         j["reference_grid"] = {
@@ -1171,7 +926,7 @@ int info_of_contours(const InfoOptions& options) {
         }
         std::cout << '\n';
     }
-    print_warnings(std::cerr, report);
+    print_warnings(std::cerr, report.warnings);
     return 0;
 }
 
@@ -1194,12 +949,12 @@ int run_info(const InfoOptions& options) {
     const SliceStack stack = read_slice_stack(options.input, read, report);
     progress.finish();
     if (options.output.json) {
-        Json j = stack_json(stack);
-        j["warnings"] = warnings_json(report);
+        Json j = input_json(summarize_input(stack));
+        j["warnings"] = warnings_json(report.warnings);
         std::cout << j.dump(2) << '\n';
     } else if (!options.output.quiet) {
-        print_stack(std::cout, stack);
-        print_warnings(std::cerr, report);
+        print_input(std::cout, summarize_input(stack));
+        print_warnings(std::cerr, report.warnings);
     }
     return 0;
 }

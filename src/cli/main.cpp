@@ -10,6 +10,7 @@
 
 #include "cli/commands.h"
 #include "core/error.h"
+#include "core/version.h"
 
 namespace {
 
@@ -60,7 +61,7 @@ void add_spacing_flag(CLI::App& app, std::optional<strata::Vec3>& spacing) {
 int main(int argc, char** argv) {
     CLI::App app{"strata: error-bounded multiresolution surfaces from stacks of segmented slices"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", "strata 0.1.0");
+    app.set_version_flag("--version", strata::kGenerator);
 
     strata::cli::BuildOptions build;
     CLI::App* build_cmd = app.add_subcommand(
