@@ -37,7 +37,7 @@ struct SceneGltfOptions {
 
 /// Writes `objects` as a plain (single-resolution) glTF 2.0 scene, binary `.glb` (one file) or
 /// `.gltf` (JSON plus `<stem>.bin` beside it), chosen by the extension of `path`
-/// (case-insensitive). Layout (../shared/DESIGN.md section 4): one root node "patient" whose
+/// (case-insensitive). Layout (docs/architecture.md section 5): one root node "patient" whose
 /// `matrix` maps patient LPS millimetres to glTF metres (glTF X = left = +x, Y = superior = +z,
 /// Z = anterior = -y, scale 0.001; a rotation, not a mirror), so vertex data stays in
 /// millimetres; under it one node per object with one mesh (one TRIANGLES primitive: POSITION

@@ -1,7 +1,7 @@
 // Contour extraction on the pixel-corner grid (Klein, Schilling, Strasser, section 2.I.1):
 // crack following around 8-connected foreground / 4-connected background components, with saddle
 // corners cut through the background so that every contour is a simple polygon; nesting from the
-// component structure; links between slices from the reference volume R of test-catalogue.md.
+// component structure; links between slices from the reference volume R of docs/test-catalogue.md.
 
 #include "contours/extract_contours.h"
 

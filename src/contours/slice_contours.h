@@ -58,7 +58,7 @@ struct SliceContourSet {
 };
 
 /// A connection between regions of consecutive slices k and k+1 of one label, following the
-/// reference volume R (test-catalogue.md): one link per connected piece of the foreground
+/// reference volume R (docs/test-catalogue.md): one link per connected piece of the foreground
 /// overlap (slice k AND slice k+1, 8-connected), and one per connected piece of the background
 /// union (slice k OR-background slice k+1, 4-connected) that touches a hole on either slice.
 struct RegionLink {

@@ -33,8 +33,8 @@ struct ContourSite {
 /// distance to the nearest site (rounded once to float), negative inside the label, zero exactly
 /// on the sites; `closest` names that site. Ties: among the sites at exactly the smallest
 /// distance, `closest` is the one with the smallest index in `sites`.
-/// Stored compactly (DESIGN.md section 6): 4 bytes per node, the closest site and the side; the
-/// distance is not stored but recomputed, bit-identical, from the node and its site.
+/// Stored compactly (docs/architecture.md section 6): 4 bytes per node, the closest site and the
+/// side; the distance is not stored but recomputed, bit-identical, from the node and its site.
 /// Inside/outside follows the mask, pixels outside the image being background: a pixel centre
 /// takes its pixel's value, a non-site edge midpoint or corner the common value of the pixels
 /// around it, except a saddle corner (diagonal pattern), which is cut off by the contour and is

@@ -21,7 +21,7 @@ struct LabelInfo {
 ///
 /// Pixel (i, j) of slice k is `labels[(k * height + j) * width + i]`; i is the column (x), j the
 /// row (y). Inside the reconstruction the centre of pixel (i, j) lies at (i + 0.5, j + 0.5) px
-/// (test-catalogue convention); `index_to_world` maps voxel indices (i, j, k), with pixel centres
+/// (docs/test-catalogue.md); `index_to_world` maps voxel indices (i, j, k), with pixel centres
 /// at integer indices (the NIfTI/ITK convention), to patient LPS millimetres.
 struct SliceStack {
     std::uint32_t width = 0;            ///< pixels per row (x)

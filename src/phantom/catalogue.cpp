@@ -1,4 +1,4 @@
-// The test-catalogue phantoms (test-catalogue.md), rasterised from analytic solids.
+// The test-catalogue phantoms (docs/test-catalogue.md), rasterised from analytic solids.
 //
 // - numpy's default_rng: M. E. O'Neill, "PCG: A Family of Simple Fast Space-Efficient
 //   Statistically Good Algorithms for Random Number Generation" (HMC-CS-2014-0905), the

@@ -12,7 +12,7 @@
 
 namespace strata {
 
-// The synthetic test stacks of /work/shared/test-catalogue.md (T01 ... T36), plus a few
+// The synthetic test stacks of docs/test-catalogue.md (T01 ... T36), plus a few
 // friendly demos for the CLI. Every case is generated from its description alone: solids are
 // rasterised at pixel centres (pixel (i, j) of slice k is foreground iff (i + 0.5, j + 0.5,
 // k * d) is inside), seeded cases replay numpy's default_rng draws exactly.

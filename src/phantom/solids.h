@@ -11,7 +11,7 @@ namespace strata {
 
 // Analytic solids for the test phantoms, in slice-space pixel units: x = column, y = row,
 // z = slice position in px (slice k of spacing d lies at z = k * d; pixel (i, j) has its
-// centre at (i + 0.5, j + 0.5)). Membership follows test-catalogue.md: closed bounds unless a
+// centre at (i + 0.5, j + 0.5)). Membership follows docs/test-catalogue.md: closed bounds unless a
 // field says a bound is open. Signed distances are negative inside. The primitives marked
 // "exact" below give the exact Euclidean distance to the boundary; the others and every CSG
 // result give a *bound*: the sign is exact and |distance| never exceeds the true distance to

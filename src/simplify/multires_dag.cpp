@@ -1,7 +1,8 @@
-// The multiresolution model as a DAG of cluster groups (DESIGN.md section 4; the structure of
-// Nexus, Cignoni et al. "Batched multi triangulation", IEEE Vis 2005, and of Nanite, Karis,
-// "Nanite: a deep dive", SIGGRAPH 2021), with the paper's error-bounded edge collapses (section
-// 7) inside each group. Selective refinement (paper section 6.2) becomes the choice of a cut.
+// The multiresolution model as a DAG of cluster groups (docs/architecture.md section 4; the
+// structure of Nexus, Cignoni et al. "Batched multi triangulation", IEEE Vis 2005, and of Nanite,
+// Karis, "Nanite: a deep dive", SIGGRAPH 2021), with the paper's error-bounded edge collapses
+// (section 7) inside each group. Selective refinement (paper section 6.2) becomes the choice of a
+// cut.
 #include "simplify/multires_dag.h"
 
 #include <algorithm>

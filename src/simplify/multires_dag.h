@@ -50,9 +50,9 @@ struct MultiresGroup {
     Sphere bounds;
 };
 
-/// The multiresolution model of one closed surface (DESIGN.md section 4): clusters of triangles
-/// at several levels and the groups (splits) between them, a DAG from the full-resolution clusters
-/// (level 0) to the roots (clusters no group consumes: the base mesh).
+/// The multiresolution model of one closed surface (docs/architecture.md section 4): clusters of
+/// triangles at several levels and the groups (splits) between them, a DAG from the full-resolution
+/// clusters (level 0) to the roots (clusters no group consumes: the base mesh).
 ///
 /// Cuts: choosing for every group whether it is refined, such that every group above a refined
 /// one (consuming a cluster it produced) is refined too, and drawing each cluster whose producer is

@@ -1,4 +1,4 @@
-// Reference topology of a slice stack via the reference volume R (test-catalogue.md, section 0).
+// Reference topology of a slice stack via the reference volume R (docs/test-catalogue.md).
 //
 // Fast labeller: run-based connected-component labelling with union-find (Rosenfeld & Pfaltz,
 // "Sequential operations in digital picture processing", JACM 1966), streamed layer by layer,

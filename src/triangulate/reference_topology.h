@@ -9,9 +9,9 @@
 
 namespace strata {
 
-// Expected topology of a reconstructed surface, computed from the masks alone (test-catalogue.md,
-// section 0, "Reference expected topology"). The reference volume R has 2K-1 layers: layer 2k is
-// slice k, layer 2k+1 is slice k AND slice k+1; R is padded with background all round.
+// Expected topology of a reconstructed surface, computed from the masks alone
+// (docs/test-catalogue.md, "The reference volume R"). The reference volume R has 2K-1 layers: layer
+// 2k is slice k, layer 2k+1 is slice k AND slice k+1; R is padded with background all round.
 // Foreground is 8-connected in-plane and face-connected in z; background is 4-connected in-plane
 // and face-connected in z (6-connected). The expected surface is the boundary of R.
 //

@@ -600,7 +600,7 @@ int cavity_count(const ReferenceTopology& topology) {
 }
 
 TEST(ReferenceTopologyCatalogue, MatchesTheCatalogueTable) {
-    // test-catalogue.md section 1 and the entries of section 2.
+    // The topology each case states (docs/test-catalogue.md; catalogue.cpp, ExpectedTopology).
     const std::vector<CatalogueRow> rows{
         {"t01_sphere", 1, 1, {}, 0},
         {"t02_ellipsoid_tilted", 1, 1, {}, 0},

@@ -1,6 +1,6 @@
-// Property test of the multiresolution model (DESIGN.md sections 3-4): seeded random stacks
-// (test::random_blob_stack, half of them with a second label drawn over part of the first), the
-// whole pipeline with small random clusters, then for every label's model:
+// Property test of the multiresolution model (docs/architecture.md sections 3-4): seeded random
+// stacks (test::random_blob_stack, half of them with a second label drawn over part of the first),
+// the whole pipeline with small random clusters, then for every label's model:
 // - the DAG: links consistent, groups after their children, error bounds monotone (a group's
 //   error_px at least that of every group that produced a cluster it consumes, at least the
 //   full-resolution bound above level 0), spheres nested;
@@ -130,7 +130,7 @@ bool ids_in_range(const MultiresMesh& m) {
     return true;
 }
 
-/// DAG invariants of DESIGN.md section 4 that cuts rely on (ids in range).
+/// DAG invariants of docs/architecture.md section 4 that cuts rely on (ids in range).
 void check_dag(const MultiresMesh& m) {
     const std::int32_t groups = std::int32_t(m.groups.size());
     for (std::uint32_t c = 0; c < m.clusters.size(); ++c) {
