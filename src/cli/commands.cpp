@@ -26,6 +26,7 @@
 #include "exporters/progressive_gltf.h"
 #include "exporters/read_progressive_gltf.h"
 #include "exporters/scene_gltf.h"
+#include "input/label_map_check.h"
 #include "input/planar_contours.h"
 #include "input/read_slice_stack.h"
 #include "input/write_nifti.h"
@@ -156,7 +157,8 @@ SliceStack load_stack(const std::string& input,
                       const std::vector<std::string>& labels,
                       TerminalProgress& progress,
                       Report& report,
-                      const std::filesystem::path& allowed_data_file = {}) {
+                      const std::filesystem::path& allowed_data_file = {},
+                      bool force_label_map = false) {
     SliceStack stack;
     if (input.empty()) {
         stack = make_phantom(phantom).stack;
@@ -186,6 +188,9 @@ SliceStack load_stack(const std::string& input,
     progress.finish();
     if (!labels.empty()) {
         select_labels(stack, labels);
+    } else if (!input.empty() && !force_label_map) {
+        // note: before any work; a greyscale picture would otherwise build hundreds of speckles
+        check_is_label_map(stack);
     }
     return stack;
 }
@@ -557,9 +562,9 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
                         "(DICOM RTSTRUCT or contour JSON), not to '" +
                             options.input + "'");
         }
-        in.stack =
-            load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
-                       options.labels, progress, report, options.allow_data_file);
+        in.stack = load_stack(options.input, options.phantom, options.spacing_mm,
+                              options.color_table, options.labels, progress, report,
+                              options.allow_data_file, options.force_label_map);
         in.input_seconds = seconds_since(start);
         in.result = reconstruct(in.stack, reconstruct_options, report);
     }
@@ -772,9 +777,9 @@ int run_extract(const ExtractOptions& options) {
     if (is_gltf_path(options.input)) {
         return extract_from_file(options, bound);
     }
-    const SliceStack stack =
-        load_stack(options.input, options.phantom, options.spacing_mm, options.color_table,
-                   options.labels, progress, report, options.allow_data_file);
+    const SliceStack stack = load_stack(options.input, options.phantom, options.spacing_mm,
+                                        options.color_table, options.labels, progress, report,
+                                        options.allow_data_file, options.force_label_map);
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;

@@ -25,10 +25,11 @@ struct BuildOptions {
     std::vector<std::string> labels;                  ///< --labels: values or names; empty: all
     std::filesystem::path color_table;                ///< --color-table file
     std::filesystem::path allow_data_file;  ///< --allow-data-file: NRRD data outside its folder
-    std::filesystem::path debug_dir;        ///< --debug-dir: per-slice debug pictures; empty: none
-    double tolerance_px = 0.5;              ///< contour simplification tolerance, pixels
-    unsigned threads = 0;                   ///< worker threads, 0 = all cores
-    std::string mesh_format = "ply";        ///< per-object mesh files: ply, obj or stl
+    bool force_label_map = false;     ///< --force-label-map: build an intensity image's values
+    std::filesystem::path debug_dir;  ///< --debug-dir: per-slice debug pictures; empty: none
+    double tolerance_px = 0.5;        ///< contour simplification tolerance, pixels
+    unsigned threads = 0;             ///< worker threads, 0 = all cores
+    std::string mesh_format = "ply";  ///< per-object mesh files: ply, obj or stl
     /// target triangles per multiresolution cluster (MultiresOptions' default, measured there)
     std::size_t cluster_triangles = MultiresOptions{}.cluster_triangles;
     /// The progressive scene OUTPUT/model.<format>: "glb" (one file) or "gltf" (JSON, base
@@ -59,6 +60,7 @@ struct ExtractOptions {
     std::vector<std::string> labels;
     std::filesystem::path color_table;
     std::filesystem::path allow_data_file;
+    bool force_label_map = false;
     double tolerance_px = 0.5;
     unsigned threads = 0;
     OutputOptions output_options;

@@ -48,6 +48,12 @@ void add_data_file_flag(CLI::App& app, std::filesystem::path& file) {
                    "folder (refused otherwise)");
 }
 
+void add_force_label_map_flag(CLI::App& app, bool& force) {
+    app.add_flag("--force-label-map", force,
+                 "Build every value of the input as an object although the input looks like an "
+                 "intensity image (many speckled values) rather than a label map");
+}
+
 void add_spacing_flag(CLI::App& app, std::optional<strata::Vec3>& spacing) {
     app.add_option_function<std::string>(
            "--spacing",
@@ -90,6 +96,7 @@ int main(int argc, char** argv) {
         ->delimiter(',')
         ->transform(trimmed());
     add_data_file_flag(*build_cmd, build.allow_data_file);
+    add_force_label_map_flag(*build_cmd, build.force_label_map);
     build_cmd->add_option("--color-table", build.color_table,
                           "Colour table naming labels: 3D Slicer .ctbl/.txt, ITK-SNAP label "
                           "description, or JSON {\"value\": \"name\"}");
@@ -180,6 +187,7 @@ int main(int argc, char** argv) {
         ->delimiter(',')
         ->transform(trimmed());
     add_data_file_flag(*extract_cmd, extract.allow_data_file);
+    add_force_label_map_flag(*extract_cmd, extract.force_label_map);
     extract_cmd->add_option("--color-table", extract.color_table, "Colour table naming labels");
     extract_cmd
         ->add_option("--tolerance", extract.tolerance_px,

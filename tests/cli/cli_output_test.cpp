@@ -2,6 +2,7 @@
 // colour table, -o checked before any work, one mesh file per object, the output folder all or
 // nothing (staged and swapped in, locked, SIGINT leaves the previous outputs).
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdlib>
@@ -160,6 +161,56 @@ TEST(CliOutput, OutputNamingAFileIsRefusedBeforeAnyWork) {
     EXPECT_EQ(extract.exit_code, 2) << extract.err;
     EXPECT_NE(extract.err.find("exists and is not a regular file"), std::string::npos)
         << extract.err;
+}
+
+/// A greyscale picture (a smooth bright blob plus noise of +-`noise` grey levels) saved as a PNG
+/// stack, as if it were a label map.
+fs::path greyscale_stack(const std::string& name,
+                         std::uint32_t size,
+                         std::uint32_t depth,
+                         int noise) {
+    SliceStack stack;
+    stack.width = size;
+    stack.height = size;
+    stack.depth = depth;
+    stack.labels.assign(stack.slice_size() * stack.depth, 0);
+    std::uint32_t state = 18;
+    for (std::size_t p = 0; p < stack.labels.size(); ++p) {
+        const double dx = double(p % size) - size / 2.0;
+        const double dy = double((p / size) % size) - size / 2.0;
+        const double r2 = (dx * dx + dy * dy) / (size * size / 16.0);
+        state = state * 1664525u + 1013904223u;
+        const int jitter = int(state >> 16) % (2 * noise + 1) - noise;
+        stack.labels[p] = std::uint16_t(std::clamp(int(30 + 200 / (1 + r2)) + jitter, 1, 255));
+    }
+    const fs::path dir = test::fresh_temp_dir(name);
+    write_png_stack(stack, dir);
+    return dir;
+}
+
+TEST(CliOutput, IntensityImageIsRefusedUnlessForced) {
+    // note: 8 slices of 96 x 96 as in issue 18, where 240 "labels" were built in 35 s
+    const fs::path picture = greyscale_stack("cli_intensity_in", 96, 8, 12);
+    const fs::path out = test::fresh_temp_dir("cli_intensity_out") / "out";
+    for (const char* command : {"build", "extract"}) {
+        const CliResult r = run_cli(
+            {command, picture.string(), "-o", (out / (std::string(command) + ".ply")).string()});
+        EXPECT_EQ(r.exit_code, 2) << command << ": " << r.err;
+        EXPECT_NE(r.err.find("strata: error: " + picture.string() +
+                             ": looks like an intensity image, not a label map"),
+                  std::string::npos)
+            << r.err;
+        EXPECT_NE(r.err.find("--labels"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("--force-label-map"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(out / "model.glb"));
+    }
+    // the flag forces it (a small picture, so that building its specks stays quick)
+    const fs::path small = greyscale_stack("cli_intensity_small_in", 20, 2, 40);
+    const CliResult forced = run_cli(
+        {"build", small.string(), "-o", (out / "forced").string(), "-q", "--force-label-map"});
+    EXPECT_EQ(forced.exit_code, 0) << forced.err;
+    const CliResult refused = run_cli({"build", small.string(), "-o", (out / "refused").string()});
+    EXPECT_EQ(refused.exit_code, 2) << refused.err;
 }
 
 TEST(CliOutput, EveryObjectGetsItsOwnMeshFile) {
