@@ -44,7 +44,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// Progress on a terminal: one line on stderr rewritten in place, at most ~10 times a second.
+/// Progress on a terminal: one line on stderr rewritten in place, at most ~10 times a second:
+/// the stage, i of n, the time since the start, and an estimate of the stage's remaining time
+/// (from its rate so far; the largest labels go first, so it errs long).
 class TerminalProgress {
 public:
     explicit TerminalProgress(bool quiet) : enabled_(!quiet && ::isatty(STDERR_FILENO) != 0) {}
@@ -56,12 +58,25 @@ public:
         }
         return [this](std::string_view what, std::size_t done, std::size_t total) {
             const auto now = Clock::now();
+            if (what != stage_) {
+                stage_ = what;
+                stage_start_ = now;
+            }
             if (done < total && now - last_ < std::chrono::milliseconds(100)) {
                 return;
             }
             last_ = now;
-            std::fprintf(stderr, "\rstrata: %.*s %zu/%zu", static_cast<int>(what.size()),
-                         what.data(), done, total);
+            const double elapsed = std::chrono::duration<double>(now - start_).count();
+            const double in_stage = std::chrono::duration<double>(now - stage_start_).count();
+            char estimate[64] = "";
+            if (done > 0 && done < total && in_stage > 1.0) {
+                std::snprintf(estimate, sizeof estimate, ", about %.0f s left in this stage",
+                              in_stage * double(total - done) / double(done));
+            }
+            // note: \x1b[K clears what a longer earlier line left
+            std::fprintf(stderr, "\rstrata: %.*s %zu of %zu, %.1f s%s\x1b[K",
+                         static_cast<int>(what.size()), what.data(), done, total, elapsed,
+                         estimate);
             std::fflush(stderr);
             open_ = true;
         };
@@ -76,7 +91,10 @@ public:
 private:
     bool enabled_;
     bool open_ = false;
+    Clock::time_point start_ = Clock::now();
     Clock::time_point last_{};
+    std::string stage_;
+    Clock::time_point stage_start_ = start_;
 };
 
 double seconds_since(Clock::time_point start) {

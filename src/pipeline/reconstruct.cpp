@@ -221,9 +221,16 @@ Reconstruction reconstruct(const SliceStack& stack,
     clock.done("triangulate");
     if (options.quantize.enabled || options.verify) {
         std::vector<std::string> unsnapped(result.surfaces.size());
+        std::size_t checked = 0;
+        std::mutex checked_mutex;
+        const char* stage = options.quantize.enabled ? "quantize+verify labels" : "verify labels";
         parallel_for(result.surfaces.size(), options.threads, [&](std::size_t i) {
             unsnapped[i] = quantize_and_verify(stack, result.slice_spacing_px, options.quantize,
                                                options.verify, result.surfaces[i]);
+            if (options.progress) {
+                const std::lock_guard<std::mutex> lock(checked_mutex);
+                options.progress(stage, ++checked, result.surfaces.size());
+            }
         });
         // Contour vertices at pixel-edge midpoints can leave two surface vertices closer than
         // the finest grid; such a label is built again from contours simplified at pixel corners.

@@ -540,52 +540,57 @@ private:
     /// Number of folds (edges whose two triangles turn by more than 90 degrees: normals pointing
     /// apart) among the edges of u's star, before collapsing u onto v or after (the edges of the
     /// changed triangles). Edges with a triangle outside the piece are not counted.
+    /// note: each edge of the star (or of its moved triangles, M) is met once; its second
+    /// triangle is another triangle of M or one beside the star (without u, unchanged by the
+    /// collapse) around its first end. The piece is an oriented manifold (check_edges, and the
+    /// link condition keeps it one), so an edge has at most two triangles.
     std::size_t folds(std::uint32_t u, std::uint32_t v, bool after) const {
-        std::vector<std::pair<std::uint32_t, std::uint32_t>>& edges = fold_edges_;
-        edges.clear();
-        auto ids_of = [&](std::uint32_t t) { return after ? local_moved(t, u, v) : triangles_[t]; };
+        std::vector<FoldTriangle>& star = fold_star_;
+        star.clear();
         for (const std::uint32_t t : vertex_triangles_[u]) {
             if (after && contains(t, v)) {
                 continue;  // removed by the collapse
             }
-            const Tri ids = ids_of(t);
-            for (int i = 0; i < 3; ++i) {
-                edges.emplace_back(std::min(ids[i], ids[(i + 1) % 3]),
-                                   std::max(ids[i], ids[(i + 1) % 3]));
-            }
+            const Tri ids = after ? local_moved(t, u, v) : triangles_[t];
+            const std::array<Vec3, 3> c = after ? moved(t, u, v) : corners(t);
+            star.push_back({ids, normal_of(c[0], c[1], c[2])});
         }
-        std::sort(edges.begin(), edges.end());
-        edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+        auto has = [](const Tri& ids, std::uint32_t w) {
+            return ids[0] == w || ids[1] == w || ids[2] == w;
+        };
         std::size_t count = 0;
-        for (const auto& edge : edges) {
-            // note: named copies, not a structured binding: clang 14 (the fuzz build) cannot
-            // capture a binding in the lambda below
-            const auto a = std::get<0>(edge);
-            const auto b = std::get<1>(edge);
-            std::array<Vec3, 2> normal{};
-            int found = 0;
-            auto visit = [&](std::uint32_t t) {
-                if (after && contains(t, u) && contains(t, v)) {
-                    return;
+        for (std::size_t i = 0; i < star.size(); ++i) {
+            const Tri& ids = star[i].ids;
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t a = ids[k], b = ids[(k + 1) % 3];
+                bool earlier = false;
+                for (std::size_t j = 0; j < i && !earlier; ++j) {
+                    earlier = has(star[j].ids, a) && has(star[j].ids, b);
                 }
-                const Tri ids = ids_of(t);
-                const bool has_b = ids[0] == b || ids[1] == b || ids[2] == b;
-                const bool has_a = ids[0] == a || ids[1] == a || ids[2] == a;
-                if (has_a && has_b && found < 2) {
-                    const std::array<Vec3, 3> c = after ? moved(t, u, v) : corners(t);
-                    normal[std::size_t(found++)] = normal_of(c[0], c[1], c[2]);
+                if (earlier) {
+                    continue;  // met with an earlier triangle of M
                 }
-            };
-            for (const std::uint32_t t : vertex_triangles_[a]) {
-                visit(t);
-            }
-            if (after && a == v) {
-                for (const std::uint32_t t : vertex_triangles_[u]) {
-                    visit(t);
+                const Vec3* other = nullptr;
+                for (std::size_t j = i + 1; j < star.size() && other == nullptr; ++j) {
+                    if (has(star[j].ids, a) && has(star[j].ids, b)) {
+                        other = &star[j].normal;
+                    }
                 }
-            }
-            if (found == 2 && dot(normal[0], normal[1]) < 0.0) {
-                ++count;
+                Vec3 beside;
+                if (other == nullptr) {
+                    for (const std::uint32_t t : vertex_triangles_[a]) {
+                        const Tri& o = triangles_[t];
+                        if (!has(o, u) && has(o, b)) {
+                            const std::array<Vec3, 3> c = corners(t);
+                            beside = normal_of(c[0], c[1], c[2]);
+                            other = &beside;
+                            break;
+                        }
+                    }
+                }
+                if (other != nullptr && dot(star[i].normal, *other) < 0.0) {
+                    ++count;
+                }
             }
         }
         return count;
@@ -908,7 +913,12 @@ private:
     std::vector<std::vector<Attached>> triangle_pieces_;
     mutable std::vector<std::array<Vec3, 3>> moved_corners_;  ///< scratch of cost()
     mutable std::vector<std::uint32_t> moved_index_;          ///< scratch of cost()
-    mutable std::vector<std::pair<std::uint32_t, std::uint32_t>> fold_edges_;  ///< of folds()
+    /// A triangle of the star in folds(), and its normal.
+    struct FoldTriangle {
+        Tri ids;
+        Vec3 normal;
+    };
+    mutable std::vector<FoldTriangle> fold_star_;  ///< scratch of folds()
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     /// Candidates whose cost is read: more than the floor each.
