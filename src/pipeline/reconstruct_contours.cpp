@@ -1,9 +1,11 @@
 #include "pipeline/reconstruct_contours.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <vector>
 
 #include "core/error.h"
 
@@ -63,6 +65,297 @@ std::uint16_t object_label(const PlanarContours& contours, std::size_t index) {
         unique = j == index || contours.objects[j].number != number;
     }
     return unique ? std::uint16_t(number) : std::uint16_t(index + 1);
+}
+
+/// The segments of one plane's input polygons in frame px, bucketed in square cells for nearest
+/// queries (exact point-to-segment distances).
+class PolygonIndex {
+public:
+    PolygonIndex(const ContourPlane& plane, const ContourFrame& frame) {
+        double lo_x = std::numeric_limits<double>::infinity();
+        double lo_y = lo_x;
+        double hi_x = -lo_x;
+        double hi_y = -lo_x;
+        for (const PlaneContour& c : plane.contours) {
+            const std::size_t n = c.points.size();
+            for (std::size_t i = 0; i < n; ++i) {
+                const Vec2 a = to_px(c.points[i], frame);
+                const Vec2 b = to_px(c.points[(i + 1) % n], frame);
+                segments_.push_back({a, b});
+                lo_x = std::min({lo_x, a.x, b.x});
+                lo_y = std::min({lo_y, a.y, b.y});
+                hi_x = std::max({hi_x, a.x, b.x});
+                hi_y = std::max({hi_y, a.y, b.y});
+            }
+        }
+        if (segments_.empty()) {
+            return;
+        }
+        origin_ = {lo_x, lo_y};
+        const double extent = std::max({hi_x - lo_x, hi_y - lo_y, 1.0});
+        cell_ = std::max(1.0, extent / 64.0);
+        columns_ = std::int64_t((hi_x - lo_x) / cell_) + 1;
+        rows_ = std::int64_t((hi_y - lo_y) / cell_) + 1;
+        cells_.assign(std::size_t(columns_ * rows_), {});
+        for (std::uint32_t i = 0; i < segments_.size(); ++i) {
+            const auto [a, b] = segments_[i];
+            const std::int64_t x0 = column(std::min(a.x, b.x));
+            const std::int64_t x1 = column(std::max(a.x, b.x));
+            const std::int64_t y0 = row(std::min(a.y, b.y));
+            const std::int64_t y1 = row(std::max(a.y, b.y));
+            for (std::int64_t y = y0; y <= y1; ++y) {
+                for (std::int64_t x = x0; x <= x1; ++x) {
+                    cells_[std::size_t(y * columns_ + x)].push_back(i);
+                }
+            }
+        }
+    }
+
+    bool empty() const { return segments_.empty(); }
+
+    /// Distance from `p` to the nearest polygon edge (infinite without edges).
+    double distance(Vec2 p) const {
+        double best = std::numeric_limits<double>::infinity();
+        if (segments_.empty()) {
+            return best;
+        }
+        const std::int64_t cx = column(p.x);
+        const std::int64_t cy = row(p.y);
+        // distance from p to the outside of the box of cells within `ring` of (cx, cy)
+        const double gx = p.x - origin_.x;
+        const double gy = p.y - origin_.y;
+        for (std::int64_t ring = 0;; ++ring) {
+            for (std::int64_t y = cy - ring; y <= cy + ring; ++y) {
+                for (std::int64_t x = cx - ring; x <= cx + ring; ++x) {
+                    const bool border =
+                        y == cy - ring || y == cy + ring || x == cx - ring || x == cx + ring;
+                    if (!border || x < 0 || y < 0 || x >= columns_ || y >= rows_) {
+                        continue;
+                    }
+                    for (const std::uint32_t i : cells_[std::size_t(y * columns_ + x)]) {
+                        best =
+                            std::min(best, segment_distance(p, segments_[i][0], segments_[i][1]));
+                    }
+                }
+            }
+            // every edge not yet seen lies outside the searched box (clamped to the grid)
+            const double reach =
+                std::min({gx - double(cx - ring) * cell_, double(cx + ring + 1) * cell_ - gx,
+                          gy - double(cy - ring) * cell_, double(cy + ring + 1) * cell_ - gy});
+            if (best <= reach || (cx - ring <= 0 && cy - ring <= 0 && cx + ring >= columns_ - 1 &&
+                                  cy + ring >= rows_ - 1)) {
+                return best;
+            }
+        }
+    }
+
+    static Vec2 to_px(Vec2 uv, const ContourFrame& frame) {
+        // slice space: pixel i covers [i, i + 1], and x = 0 is u0
+        return {(uv.x - frame.u0) / frame.pitch_mm, (uv.y - frame.v0) / frame.pitch_mm};
+    }
+
+private:
+    static double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
+        const Vec2 ab = b - a;
+        const double length2 = dot(ab, ab);
+        double t = length2 > 0.0 ? dot(p - a, ab) / length2 : 0.0;
+        t = std::clamp(t, 0.0, 1.0);
+        return norm(p - (a + t * ab));
+    }
+    std::int64_t column(double x) const {
+        return std::clamp<std::int64_t>(std::int64_t(std::floor((x - origin_.x) / cell_)), 0,
+                                        columns_ - 1);
+    }
+    std::int64_t row(double y) const {
+        return std::clamp<std::int64_t>(std::int64_t(std::floor((y - origin_.y) / cell_)), 0,
+                                        rows_ - 1);
+    }
+
+    std::vector<std::array<Vec2, 2>> segments_;
+    std::vector<std::vector<std::uint32_t>> cells_;
+    Vec2 origin_;
+    double cell_ = 1.0;
+    std::int64_t columns_ = 0;
+    std::int64_t rows_ = 0;
+};
+
+/// An upper bound, within 0.005 px, of the largest distance from a point of segment ab to
+/// `index`'s polygons, or `floor` when that largest distance is at most `floor`. Branch and bound
+/// on halvings: the distance is 1-Lipschitz, so a piece of length l whose ends are at da and db
+/// stays below (da + db + l) / 2.
+double segment_sup_distance(const PolygonIndex& index, Vec2 a, Vec2 b, double floor) {
+    struct Piece {
+        Vec2 a, b;
+        double da, db;
+    };
+    double result = floor;
+    std::vector<Piece> stack{{a, b, index.distance(a), index.distance(b)}};
+    while (!stack.empty()) {
+        const Piece piece = stack.back();
+        stack.pop_back();
+        result = std::max({result, piece.da, piece.db});
+        const double length = norm(piece.b - piece.a);
+        const double upper = 0.5 * (piece.da + piece.db + length);
+        if (upper <= result) {
+            continue;
+        }
+        if (length <= 0.01) {
+            result = upper;
+            continue;
+        }
+        const Vec2 m = 0.5 * (piece.a + piece.b);
+        const double dm = index.distance(m);
+        stack.push_back({piece.a, m, piece.da, dm});
+        stack.push_back({m, piece.b, dm, piece.db});
+    }
+    return result;
+}
+
+/// The z map of one structure from its slice space to the frame (piecewise linear through the
+/// planes) and what it does to error bounds measured before it (see remap_bounds).
+class PlaneMap {
+public:
+    PlaneMap(const ContourStack& roi, const ContourFrame& frame) : roi_(roi), frame_(frame) {
+        d_ = slice_spacing_px(roi.stack);
+        const std::vector<double>& w = roi.plane_w;
+        for (std::size_t k = 0; k < w.size(); ++k) {
+            z_.push_back((w[k] - frame.first_w) / frame.pitch_mm);
+        }
+        const double uniform = w.size() > 1 ? (w.back() - w.front()) / double(w.size() - 1) : 1.0;
+        for (std::size_t k = 0; k + 1 < w.size(); ++k) {
+            const double slope = (w[k + 1] - w[k]) / uniform;
+            stretch_ = std::max(stretch_, slope);
+            affine_ = affine_ && std::abs(slope - 1.0) <= 1e-9;
+        }
+    }
+
+    /// True when the map is a translation in z (evenly spaced planes): nothing to re-measure.
+    bool affine() const { return affine_; }
+    /// The map's Lipschitz constant: the largest plane gap over the mean gap, at least 1.
+    double stretch() const { return stretch_; }
+    std::size_t planes() const { return z_.size(); }
+    /// Frame z of plane k.
+    double plane_z(std::size_t k) const { return z_[k]; }
+    /// Slice-space z of plane k.
+    double slice_z(std::size_t k) const { return double(k) * d_; }
+    double map(double z) const { return contour_to_frame(roi_, frame_, {0.0, 0.0, z}).z; }
+
+    /// The index of the slab [k d, (k + 1) d] holding slice-space z values z0 <= z1, or -1 when
+    /// they are in no single slab (the map bends between them).
+    std::int64_t slab(double z0, double z1) const {
+        const double eps = 1e-9 * std::max(1.0, std::abs(z1));
+        const double k = std::floor((z0 + eps) / d_);
+        return z1 <= (k + 1.0) * d_ + eps ? std::int64_t(k) : -1;
+    }
+
+    /// Largest |map(sum l_i z_i) - sum l_i map(z_i)| over the convex combinations of slice-space
+    /// z values in [z0, z1]: the oscillation of the map minus its chord over [z0, z1] (the map is
+    /// linear between planes, so the extremes are at planes inside).
+    double chord_gap(double z0, double z1) const {
+        const double f0 = map(z0);
+        const double f1 = map(z1);
+        double lo = 0.0;
+        double hi = 0.0;
+        if (z1 > z0) {
+            const auto k0 = std::int64_t(std::ceil(z0 / d_));
+            const auto k1 = std::int64_t(std::floor(z1 / d_));
+            for (std::int64_t k = std::max<std::int64_t>(k0, 0);
+                 k <= std::min<std::int64_t>(k1, std::int64_t(z_.size()) - 1); ++k) {
+                const double z = double(k) * d_;
+                const double h = z_[std::size_t(k)] - (f0 + (z - z0) * (f1 - f0) / (z1 - z0));
+                lo = std::min(lo, h);
+                hi = std::max(hi, h);
+            }
+        }
+        return hi - lo;
+    }
+
+private:
+    const ContourStack& roi_;
+    const ContourFrame& frame_;
+    double d_ = 1.0;
+    std::vector<double> z_;
+    double stretch_ = 1.0;
+    bool affine_ = true;
+};
+
+/// Makes `model`'s bounds, measured in `roi`'s slice space (evenly spaced planes), true in the
+/// frame after the plane map; `slice_z`: every position's slice-space z before the map,
+/// `model.positions` already mapped. Between two planes the map is linear, so a triangle within
+/// one slab keeps its sections and its bound; for each group:
+/// - to the contours: every produced triangle spanning several slabs is cut by every plane it
+///   meets in the frame, and the section measured against that plane's input polygons (exact
+///   distances, branch and bound to 0.005 px);
+/// - from the contours: a contour point within e of the surface in slice space stays within
+///   stretch * e of the mapped surface, plus the largest z gap between a mapped triangle and the
+///   map of its points (chord_gap over its z range), since the map moves points in z only.
+/// The bound becomes the larger of the two, then monotone along the DAG again.
+void remap_bounds(MultiresMesh& model,
+                  const std::vector<double>& slice_z,
+                  const PlaneMap& map,
+                  const std::vector<PolygonIndex>& polygons) {
+    const double stretch = map.stretch();
+    for (MultiresGroup& g : model.groups) {
+        double to_contours = g.error_px;
+        double gap = 0.0;
+        for (const std::uint32_t id : g.produced) {
+            const MultiresCluster& c = model.clusters[id];
+            for (const auto& t : c.triangles) {
+                const std::uint32_t v[3] = {c.vertices[t[0]], c.vertices[t[1]], c.vertices[t[2]]};
+                const double z0 = std::min({slice_z[v[0]], slice_z[v[1]], slice_z[v[2]]});
+                const double z1 = std::max({slice_z[v[0]], slice_z[v[1]], slice_z[v[2]]});
+                if (map.slab(z0, z1) >= 0) {
+                    continue;
+                }
+                gap = std::max(gap, map.chord_gap(z0, z1));
+                const Vec3 p[3] = {model.positions[v[0]], model.positions[v[1]],
+                                   model.positions[v[2]]};
+                const double f0 = std::min({p[0].z, p[1].z, p[2].z});
+                const double f1 = std::max({p[0].z, p[1].z, p[2].z});
+                for (std::size_t k = 0; k < map.planes(); ++k) {
+                    const double z = map.plane_z(k);
+                    const double eps = 1e-9 * std::max(1.0, std::abs(z));
+                    if (z < f0 - eps || z > f1 + eps) {
+                        continue;
+                    }
+                    // the section: the in-plane vertices and the crossings of the other edges
+                    std::vector<Vec2> ends;
+                    for (int i = 0; i < 3; ++i) {
+                        const Vec3 a = p[i];
+                        const Vec3 b = p[(i + 1) % 3];
+                        const bool a_in = std::abs(a.z - z) <= eps;
+                        const bool b_in = std::abs(b.z - z) <= eps;
+                        if (a_in) {
+                            ends.push_back({a.x, a.y});
+                        } else if (!b_in && (a.z < z) != (b.z < z)) {
+                            const double s = (z - a.z) / (b.z - a.z);
+                            ends.push_back({a.x + s * (b.x - a.x), a.y + s * (b.y - a.y)});
+                        }
+                    }
+                    const PolygonIndex& index = polygons[k];
+                    if (ends.size() == 1) {
+                        to_contours = std::max(to_contours, index.distance(ends[0]));
+                    }
+                    for (std::size_t i = 0; i + 1 < ends.size(); ++i) {
+                        for (std::size_t j = i + 1; j < ends.size(); ++j) {
+                            to_contours =
+                                segment_sup_distance(index, ends[i], ends[j], to_contours);
+                        }
+                    }
+                }
+            }
+        }
+        g.error_px = std::max(to_contours, stretch * g.error_px + gap);
+    }
+    // monotone again: a group's bound is never below that of a group whose clusters it consumes
+    for (MultiresGroup& g : model.groups) {
+        for (const std::uint32_t id : g.consumed) {
+            const std::int32_t producer = model.clusters[id].producer;
+            if (producer >= 0) {
+                g.error_px = std::max(g.error_px, model.groups[std::size_t(producer)].error_px);
+            }
+        }
+    }
 }
 
 }  // namespace
@@ -296,13 +589,12 @@ Reconstruction reconstruct_contours(const PlanarContours& contours,
                 it->seconds += t.seconds;
             }
         }
-        // The largest stretch of z by the plane map (its slope against the uniform spacing).
-        double stretch = 1.0;
-        const double uniform = roi.plane_w.size() > 1 ? (roi.plane_w.back() - roi.plane_w.front()) /
-                                                            double(roi.plane_w.size() - 1)
-                                                      : 1.0;
-        for (std::size_t k = 0; k + 1 < roi.plane_w.size(); ++k) {
-            stretch = std::max(stretch, (roi.plane_w[k + 1] - roi.plane_w[k]) / uniform);
+        const PlaneMap map(roi, frame);
+        std::vector<PolygonIndex> polygons;
+        if (!map.affine()) {
+            for (const ContourPlane& plane : object.planes) {
+                polygons.emplace_back(plane, frame);
+            }
         }
         for (ObjectSurface& surface : part.surfaces) {
             for (Vec3& p : surface.mesh.positions) {
@@ -318,16 +610,21 @@ Reconstruction reconstruct_contours(const PlanarContours& contours,
             for (MultiresGroup& g : model.groups) {
                 g.error_px += kScanConversionPx;
             }
+            std::vector<double> slice_z;
             for (Vec3& p : model.positions) {
+                slice_z.push_back(p.z);
                 p = contour_to_frame(roi, frame, p);
+            }
+            if (!map.affine()) {
+                remap_bounds(model, slice_z, map, polygons);
             }
             for (MultiresCluster& c : model.clusters) {
                 c.bounds.center = contour_to_frame(roi, frame, c.bounds.center);
-                c.bounds.radius *= stretch;
+                c.bounds.radius *= map.stretch();
             }
             for (MultiresGroup& g : model.groups) {
                 g.bounds.center = contour_to_frame(roi, frame, g.bounds.center);
-                g.bounds.radius *= stretch;
+                g.bounds.radius *= map.stretch();
             }
             result.models.push_back(std::move(model));
         }

@@ -67,7 +67,9 @@ Vec3 contour_to_frame(const ContourStack& roi, const ContourFrame& frame, Vec3 p
 /// Runs the pipeline on every object of `contours` with planes (one reconstruction each, on its
 /// own stack) and gathers the surfaces and models in `frame`'s slice space, in object order.
 /// The models' error bounds include kScanConversionPx (so they hold against the input polygons
-/// in the mesh-to-contour direction; a feature thinner than a pixel can vanish).
+/// in the mesh-to-contour direction; a feature thinner than a pixel can vanish). With unevenly
+/// spaced planes the groups' bounds are measured again in the frame after the plane map (see
+/// remap_bounds in the .cpp), so every cut's bound holds there, not only in slice space.
 /// Objects without closed contours get no surface (clean_planar_contours reported them).
 /// Returns the reconstruction; `result.contours`, `fields` and `medial_axes` are left empty.
 Reconstruction reconstruct_contours(const PlanarContours& contours,

@@ -2,7 +2,9 @@
 // sliced analytically into polygons on unevenly spaced planes (one plane missing). Checked
 // independently of the pipeline: every input plane's section of the world mesh against the input
 // polygons (exact segment distances, tests/support/slice_section.h), closed outward manifolds
-// with the solids' genus, and the distance of the surface between planes to the true surface.
+// with the solids' genus, the distance of the surface between planes to the true surface, and
+// every level's declared bound in the model's frame, where the planes are unevenly spaced, by the
+// cut-error oracle (tests/support/cut_error.h) against the input polygons.
 
 #include <cmath>
 #include <numbers>
@@ -11,6 +13,8 @@
 
 #include "mesh/mesh_checks.h"
 #include "pipeline/reconstruct_contours.h"
+#include "simplify/multires_dag.h"
+#include "support/cut_error.h"
 #include "support/slice_section.h"
 
 namespace strata {
@@ -241,6 +245,76 @@ TEST(ContourPhantom, TiltedPlanesKeepTheirSections) {
         EXPECT_TRUE(section.ok()) << "plane " << planes[k] << ": " << section.max_mesh_to_contour_px
                                   << " / " << section.max_contour_to_mesh_px << " mm, bound "
                                   << bound_mm;
+    }
+}
+
+TEST(ContourPhantom, EveryLevelKeepsItsBoundBetweenUnevenPlanes) {
+    // The pipeline simplifies on evenly spaced slices; the model maps them onto the real planes
+    // (gaps 2 to 6.5 mm). Every level's cut, in the model's frame, must stay within the bound the
+    // model declares for it, in both directions, against the input polygons: measured by the
+    // cut-error oracle with the planes where they really are.
+    const Phantom ph = make_phantom();
+    Report report;
+    const PlanarContours contours = clean_planar_contours(ph.raw, {}, report);
+    ContourGridOptions grid;
+    grid.pitch_mm = 0.25;
+    const ContourFrame frame = contour_frame(contours, grid, report);
+    ReconstructOptions options;
+    options.simplify = true;
+    const Reconstruction result = reconstruct_contours(contours, frame, grid, options, report);
+    ASSERT_EQ(result.models.size(), 2u);
+    const double pitch = frame.pitch_mm;
+    for (std::size_t i = 0; i < 2; ++i) {
+        // the input polygons in the frame's px (pixel i covers [i, i + 1], x = 0 at u0), one
+        // slice per plane of this structure, at its z in the frame
+        SliceContours input;
+        std::vector<double> plane_z;
+        for (const double w : ph.planes) {
+            SliceContourSet set;
+            for (const RawContour& c : ph.raw.rois[i].contours) {
+                if (std::abs(c.points[0].z - w) < 1e-9) {
+                    Contour contour;
+                    contour.label = 1;
+                    for (const Vec3 p : c.points) {
+                        contour.points.push_back(
+                            {(p.x - frame.u0) / pitch, (p.y - frame.v0) / pitch});
+                    }
+                    set.contours.push_back(contour);
+                }
+            }
+            if (!set.contours.empty()) {
+                input.slices.push_back(set);
+                plane_z.push_back((w - frame.first_w) / pitch);
+            }
+        }
+        const MultiresMesh& model = result.models[i];
+        const std::uint32_t levels = level_count(model);
+        ASSERT_GE(levels, 3u) << ph.raw.rois[i].name;
+        double ratio = 0.0;  // the largest measured / declared over the coarser levels
+        for (std::uint32_t level = 0; level < levels; ++level) {
+            const MultiresCut cut = select_cut_at_level(model, level);
+            const TriMesh mesh = cut_mesh(model, cut);
+            const test::CutErrorReport measured = test::measure_cut_error(mesh, input, 1, plane_z);
+            EXPECT_TRUE(measured.problems.empty())
+                << ph.raw.rois[i].name << " level " << level << ": "
+                << (measured.problems.empty() ? "" : measured.problems.front());
+            EXPECT_LE(measured.max_px(), cut.error_px + 1e-9)
+                << ph.raw.rois[i].name << " level " << level << ": section "
+                << measured.max_section_px << " px, cap " << measured.max_cap_px << " px, coverage "
+                << measured.max_coverage_px << " px, worst on plane " << measured.worst_slice
+                << " at (" << measured.worst_point.x << ", " << measured.worst_point.y << ")";
+            if (level > 0) {
+                ratio = std::max(ratio, measured.max_px() / cut.error_px);
+            }
+            std::printf(
+                "%s level %u: %zu triangles, measured %.3f px (section %.3f, coverage "
+                "%.3f), declared %.3f px\n",
+                ph.raw.rois[i].name.c_str(), level, mesh.triangles.size(), measured.max_px(),
+                measured.max_section_px, measured.max_coverage_px, cut.error_px);
+        }
+        // Bounds that hold but say nothing are no bounds: the coarser levels' worst measured
+        // error is a fair part of what they declare.
+        EXPECT_GT(ratio, 0.25) << ph.raw.rois[i].name;
     }
 }
 

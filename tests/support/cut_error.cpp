@@ -481,6 +481,29 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
                                                  format_z(slice_spacing_px) +
                                                  " px, expected positive and finite");
     }
+    std::vector<double> plane_z(contours.slices.size());
+    for (std::size_t k = 0; k < plane_z.size(); ++k) {
+        plane_z[k] = static_cast<double>(k) * slice_spacing_px;
+    }
+    return measure_cut_error(mesh, contours, label, plane_z);
+}
+
+CutErrorReport measure_cut_error(const TriMesh& mesh,
+                                 const SliceContours& contours,
+                                 std::uint16_t label,
+                                 const std::vector<double>& plane_z) {
+    if (plane_z.size() != contours.slices.size()) {
+        throw Error(ErrorCode::InvalidInput,
+                    "measure_cut_error: " + std::to_string(plane_z.size()) + " plane positions, " +
+                        std::to_string(contours.slices.size()) + " slices");
+    }
+    for (std::size_t k = 0; k < plane_z.size(); ++k) {
+        if (!std::isfinite(plane_z[k]) || (k > 0 && !(plane_z[k] > plane_z[k - 1]))) {
+            throw Error(ErrorCode::InvalidInput, "measure_cut_error: plane " + std::to_string(k) +
+                                                     " at z = " + format_z(plane_z[k]) +
+                                                     ", expected finite and increasing");
+        }
+    }
     CutErrorReport report;
     const auto slice_count = static_cast<std::uint32_t>(contours.slices.size());
     const auto vertex_count = static_cast<std::uint32_t>(mesh.positions.size());
@@ -508,13 +531,14 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
                                       ": non-finite coordinate, skipped");
             continue;
         }
-        const double k0 = std::max(0.0, std::ceil(z0 / slice_spacing_px) - 1);
-        const double k1 =
-            std::min(static_cast<double>(slice_count) - 1, std::floor(z1 / slice_spacing_px) + 1);
-        for (double k = k0; k <= k1; ++k) {
-            const double z = k * slice_spacing_px;
+        // the planes within the triangle's z range (plane_eps grows with |z|: start one early)
+        auto k = static_cast<std::size_t>(std::lower_bound(plane_z.begin(), plane_z.end(), z0) -
+                                          plane_z.begin());
+        k = k > 0 ? k - 1 : 0;
+        for (; k < slice_count && plane_z[k] - plane_eps(plane_z[k]) <= z1; ++k) {
+            const double z = plane_z[k];
             if (z0 <= z + plane_eps(z) && z1 >= z - plane_eps(z)) {
-                meeting[static_cast<std::size_t>(k)].push_back(f);
+                meeting[k].push_back(f);
             }
         }
     }
@@ -527,7 +551,7 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
             continue;
         }
         ++report.slices_met;
-        const double z = k * slice_spacing_px;
+        const double z = plane_z[k];
         const double eps = plane_eps(z);
         const auto polygons = original_polygons(contours.slices[k], label);
         if (polygons.empty()) {
@@ -648,7 +672,7 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
         const PolylineIndex index(original_polygons(contours.slices[k], label));
         Worst located;
         located.distance = -1;
-        for (const auto& s : slice_section_segments(part, k * slice_spacing_px)) {
+        for (const auto& s : slice_section_segments(part, plane_z[k])) {
             sample_segment(index, s[0], s[1], kSectionStepPx, located);
         }
         section_worst.worst.point = located.point;
@@ -659,7 +683,7 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
     Vec3 cover_point;
     std::uint32_t cover_slice = 0;
     for (std::uint32_t k = 0; k < slice_count; ++k) {
-        const double z = k * slice_spacing_px;
+        const double z = plane_z[k];
         const double before = cover;
         for (const auto& polygon : original_polygons(contours.slices[k], label)) {
             if (polygon.empty()) {

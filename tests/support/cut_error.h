@@ -80,6 +80,15 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
                                  std::uint16_t label,
                                  double slice_spacing_px);
 
+/// The same with slice k's plane at z = `plane_z[k]` instead of k * d (planes unevenly spaced,
+/// e.g. planar contours in their model's frame); `plane_z` increasing, one per slice.
+/// \throw strata::Error (InvalidInput) when `plane_z` is not finite and increasing or its size is
+/// not the number of slices.
+CutErrorReport measure_cut_error(const TriMesh& mesh,
+                                 const SliceContours& contours,
+                                 std::uint16_t label,
+                                 const std::vector<double>& plane_z);
+
 /// The original polylines (Contour::points, closed) of every contour of `label` in `set`, in the
 /// set's order.
 std::vector<std::vector<Vec2>> original_polygons(const SliceContourSet& set, std::uint16_t label);
