@@ -362,6 +362,11 @@ def cases(strata, node):
                   [S, "build", D + "/clash", "-o", D + "/out_clash", "-q", "--color-table", D + "/clash.json"],
                   expect=0, setup=clash))
 
+    # --- an object that cannot be on the progressive model's grid fails the build (exit 1)
+    c.append(Case("object-not-on-a-grid", "lost outputs",
+                  [S, "build", D + "/sphere", "-o", D + "/model", "-q", "--grid-step", "0.5"],
+                  expect=1, names="sphere", field="not on a grid"))
+
     # --- the web viewer's server
     if node:
         serve = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "web-viewer", "serve.mjs")

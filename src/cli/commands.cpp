@@ -556,6 +556,11 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
     reconstruct_options.multires.cluster_triangles = options.cluster_triangles;
+    if (options.grid_step > 0.0) {
+        // note: exactly this grid; a surface that does not snap to it fails the build
+        reconstruct_options.quantize.step = options.grid_step;
+        reconstruct_options.quantize.max_halvings = 0;
+    }
     reconstruct_options.progress = progress.callback();
     BuildInput in;
     if (!options.input.empty() && is_planar_contour_file(options.input)) {
@@ -700,11 +705,19 @@ int run_build(const BuildOptions& options) {
             continue;
         }
         if (!(result.models[i].grid_step > 0.0)) {
-            // note: every object of the input is in every output, or the build fails
-            throw Error(ErrorCode::Internal,
-                        "export: " + scene[i].name + " (label " + std::to_string(scene[i].label) +
-                            "): its surface is not on a grid, so it cannot be in model." +
-                            options.model_format + "; no outputs written");
+            // note: every object of the input is in every output, or the build fails; the
+            // quantize stage's warning says why
+            std::string why;
+            for (const Warning& w : report.warnings) {
+                if (w.stage == "quantize" && w.where == "label " + std::to_string(scene[i].label)) {
+                    why = " (" + w.message + ")";
+                }
+            }
+            throw Error(ErrorCode::Internal, "export: " + scene[i].name + " (label " +
+                                                 std::to_string(scene[i].label) +
+                                                 "): its surface is not on a grid" + why +
+                                                 ", so it cannot be in model." +
+                                                 options.model_format + "; no outputs written");
         }
         ProgressiveObject object;
         object.name = scene[i].name;

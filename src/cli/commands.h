@@ -25,7 +25,9 @@ struct BuildOptions {
     std::vector<std::string> labels;                  ///< --labels: values or names; empty: all
     std::filesystem::path color_table;                ///< --color-table file
     std::filesystem::path allow_data_file;  ///< --allow-data-file: NRRD data outside its folder
-    bool force_label_map = false;     ///< --force-label-map: build an intensity image's values
+    bool force_label_map = false;  ///< --force-label-map: build an intensity image's values
+    /// --grid-step: snap every surface to exactly this grid (px); 0: 1/16, finer when needed
+    double grid_step = 0.0;
     std::filesystem::path debug_dir;  ///< --debug-dir: per-slice debug pictures; empty: none
     double tolerance_px = 0.5;        ///< contour simplification tolerance, pixels
     unsigned threads = 0;             ///< worker threads, 0 = all cores

@@ -1,7 +1,9 @@
 // The `strata` command: flags -> options, messages and exit codes.
 // Exit codes: 0 ok, 1 internal or I/O failure, 2 bad input or usage.
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -128,6 +130,21 @@ int main(int argc, char** argv) {
                      "Target triangles per cluster of the multiresolution model")
         ->check(CLI::Range(std::size_t{16}, std::size_t{1} << 20))
         ->capture_default_str();
+    build_cmd
+        ->add_option("--grid-step", build.grid_step,
+                     "Snap every surface's vertices to exactly this grid (px in x, y; slices in "
+                     "z), a power of two from 1/1024 to 1/2; an object that does not snap to it "
+                     "fails the build (default: 1/16, halved up to 3 times when needed)")
+        ->check(CLI::Validator(
+            [](const std::string& text) {
+                int exponent = 0;
+                const double step = std::strtod(text.c_str(), nullptr);
+                const bool ok =
+                    std::frexp(step, &exponent) == 0.5 && exponent <= 0 && exponent >= -9;
+                return ok ? std::string()
+                          : "--grid-step " + text + ": expected a power of two from 1/1024 to 1/2";
+            },
+            "POWER OF TWO", "grid step"));
     build_cmd->add_option("--lod-levels", build.lod_levels,
                           "Also write OUTPUT/lods.glb (MSFT_lod, _LOD<i> node names): levels at "
                           "these error bounds (e.g. 0.5mm,2mm,8mm) or this many levels (e.g. 3)");
