@@ -6,8 +6,10 @@
 # scripts/bench_contours_peer.py). strata scan-converts at 0.25 mm (a quarter of the CT pixel, its
 # default with a reference CT). Prints triangles, seconds, and the error to the analytic surfaces
 # in mm (mean, max; between planes; truth -> mesh).
-#   bash scripts/bench-contours.sh [--strata PATH] [--gap MM] [--scale S] [--keep DIR]
+#   bash scripts/bench-contours.sh [--strata PATH] [--gap MM] [--scale S] [--pitch MM] [--keep DIR]
 #     --strata PATH  the strata binary (default: build/strata in the repository)
+#     --pitch MM     strata's scan-conversion pitch (default 0.25; finer shows what the
+#                    rasterisation of the polygons still costs)
 #     --gap MM       plane spacing (default 3)
 #     --scale S      every length of the solids times S (default 1: ball r 20 mm, torus tube 9 mm)
 #     --keep DIR     keep the phantom, outputs and results in DIR (default: a temp folder, removed)
@@ -19,12 +21,14 @@ peer="$root/scripts/bench_contours_peer.py"
 strata="$root/build/strata"
 gap=3
 scale=1
+pitch=0.25
 keep=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
         --strata) strata="$2"; shift ;;
         --gap) gap="$2"; shift ;;
         --scale) scale="$2"; shift ;;
+        --pitch) pitch="$2"; shift ;;
         --keep) keep="$2"; shift ;;
         -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; exit 0 ;;
         *) echo "bench-contours: unknown argument $1 (see --help)" >&2; exit 2 ;;
@@ -40,7 +44,7 @@ mkdir -p "$work"
 
 "$python" "$peer" phantom "$work" --gap "$gap" --scale "$scale"
 start=$(date +%s.%N)
-"$strata" build "$work/phantom.json" --contour-pitch 0.25 --threads 2 -o "$work/strata" --quiet
+"$strata" build "$work/phantom.json" --contour-pitch "$pitch" --threads 2 -o "$work/strata" --quiet
 end=$(date +%s.%N)
 echo "{\"wall_s\": $(echo "$end - $start" | bc)}" > "$work/strata_time.json"
 "$python" "$peer" raster "$work" --pixel 1
