@@ -1349,9 +1349,9 @@ ObjectSurface LabelSurface::build() {
 /// Builds one label's surface. Where simplified contours overlap in another pattern than the
 /// pixels (the surface would get the wrong topology), the label's contours on both slices of
 /// that slab are simplified again with vertices at pixel corners only (where they had
-/// edge-midpoint vertices), then fall back to their original, unsimplified polygons (exactly the
-/// pixel boundary, so the error bound holds trivially); the label is built again each time, a
-/// few times at most.
+/// edge-midpoint vertices), then only their edges near the other slice's contours go back to the
+/// original points, then all of them (exactly the pixel boundary, so the error bound holds
+/// trivially); the label is built again each time, a few times at most.
 /// Where contours meet at a saddle corner v the tracer cuts the corner on one side (foreground
 /// 8-connected). Moves that cut to distance r of v and cuts the opposite corner by the same
 /// amount, so the region covers a small diamond around v: it overlaps whichever of the two
@@ -1516,6 +1516,50 @@ double contour_deviation_px(const SliceContours& contours, std::uint16_t label) 
     return deviation;
 }
 
+/// Whether the simplified contours of `label` on one slice are simple and pairwise disjoint
+/// (exact predicates), as the triangulation needs them.
+bool contours_clean(const SliceContourSet& set, std::uint16_t label) {
+    using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 2, std::array<std::uint32_t, 2>>;
+    std::vector<Box> boxes;
+    std::vector<std::vector<Segment>> segments;
+    for (const Contour& c : set.contours) {
+        if (c.label != label) {
+            continue;
+        }
+        const auto contour = std::uint32_t(segments.size());
+        segments.emplace_back();
+        const std::size_t n = c.simplified.size();
+        for (std::uint32_t e = 0; e < n; ++e) {
+            const Vec2 a = c.points[c.simplified[e]];
+            const Vec2 b = c.points[c.simplified[(e + 1) % n]];
+            double lo[2] = {std::min(a.x, b.x), std::min(a.y, b.y)};
+            double hi[2] = {std::max(a.x, b.x), std::max(a.y, b.y)};
+            boxes.emplace_back(lo, hi, std::array<std::uint32_t, 2>{contour, e});
+            segments.back().push_back(Segment(to_point(a), to_point(b)));
+        }
+    }
+    bool clean = true;
+    CGAL::box_self_intersection_d(
+        boxes.begin(), boxes.end(),
+        [&](const Box& p, const Box& q) {
+            const auto [cp, ep] = p.info();
+            const auto [cq, eq] = q.info();
+            const Segment& a = segments[cp][ep];
+            const Segment& b = segments[cq][eq];
+            const std::size_t n = segments[cp].size();
+            if (cp == cq && (ep + 1) % n == eq) {
+                // consecutive: they share a.target() == b.source() and nothing else
+                clean = clean && !a.has_on(b.target()) && !b.has_on(a.source());
+            } else if (cp == cq && (eq + 1) % n == ep) {
+                clean = clean && !b.has_on(a.target()) && !a.has_on(b.source());
+            } else if (CGAL::do_intersect(a, b)) {
+                clean = false;
+            }
+        },
+        std::ptrdiff_t(10), CGAL::Box_intersection_d::CLOSED);
+    return clean;
+}
+
 ObjectSurface build_label_surface(const SliceStack& stack,
                                   const SliceContours& contours,
                                   const std::vector<SliceDistanceFields>& fields,
@@ -1530,25 +1574,42 @@ ObjectSurface build_label_surface(const SliceStack& stack,
     }
     SliceContours exact = contours;
     std::vector<bool> at_corners(contours.slices.size(), false);
+    std::vector<bool> partly(contours.slices.size(), false);
     std::vector<bool> unsimplified(contours.slices.size(), false);
     SimplifyOptions corners;
     corners.tolerance_px = contours.tolerance_px;
     corners.edge_midpoints = false;
+    const double radius = unsimplify_radius_px(contours.tolerance_px);
     std::vector<std::uint32_t> mismatched = first.mismatched_slabs();
-    for (int attempt = 0; attempt < 3 && !mismatched.empty(); ++attempt) {
+    // Each slice of a mismatched slab goes one step further per attempt: vertices at pixel
+    // corners, then original points near the neighbouring slices' contours only (a whole
+    // original slice left a row of staircase notches between smooth neighbours), then all of
+    // them original. Steps that change nothing are skipped.
+    for (int attempt = 0; attempt < 4 && !mismatched.empty(); ++attempt) {
         for (std::uint32_t k : mismatched) {
             for (std::uint32_t slice : {k, k + 1}) {
                 if (unsimplified[slice]) {
                     continue;
                 }
+                SliceContourSet& set = exact.slices[slice];
                 if (!at_corners[slice]) {
                     at_corners[slice] = true;
-                    if (resimplify_label(exact.slices[slice], label, corners)) {
+                    if (resimplify_label(set, label, corners)) {
                         continue;
                     }
                 }
+                if (!partly[slice]) {
+                    partly[slice] = true;
+                    const SliceContourSet before = set;
+                    if (unsimplify_near_neighbours(set, label, fields, slice, radius)) {
+                        if (contours_clean(set, label)) {
+                            continue;
+                        }
+                        set = before;
+                    }
+                }
                 unsimplified[slice] = true;
-                for (Contour& c : exact.slices[slice].contours) {
+                for (Contour& c : set.contours) {
                     if (c.label == label) {
                         c.simplified.resize(c.points.size());
                         std::iota(c.simplified.begin(), c.simplified.end(), 0u);
@@ -1586,14 +1647,102 @@ ObjectSurface build_label_surface(const SliceStack& stack,
     for (std::uint32_t k = 0; k < unsimplified.size(); ++k) {
         if (unsimplified[k]) {
             surface.unsimplified.push_back(k);
-        } else if (at_corners[k]) {
+            continue;
+        }
+        if (at_corners[k]) {
             surface.at_corners.push_back(k);
+        }
+        if (partly[k]) {
+            surface.partly_unsimplified.push_back(k);
         }
     }
     return surface;
 }
 
 }  // namespace
+
+double unsimplify_radius_px(double tolerance_px) {
+    return 2.0 * tolerance_px + 0.5;
+}
+
+bool unsimplify_near_neighbours(SliceContourSet& set,
+                                std::uint16_t label,
+                                const std::vector<SliceDistanceFields>& fields,
+                                std::uint32_t slice,
+                                double radius_px) {
+    std::vector<const DistanceField*> others;
+    for (const std::int64_t s : {std::int64_t(slice) - 1, std::int64_t(slice) + 1}) {
+        if (s < 0 || s >= std::int64_t(fields.size())) {
+            continue;
+        }
+        for (const DistanceField& f : fields[std::size_t(s)].fields) {
+            if (f.label == label) {
+                others.push_back(&f);
+            }
+        }
+    }
+    auto near = [&](Vec2 p) {
+        for (const DistanceField* f : others) {
+            const double u = std::round((p.x - f->origin_x) / DistanceField::kCellPx);
+            const double v = std::round((p.y - f->origin_y) / DistanceField::kCellPx);
+            if (!(u >= 0.0 && v >= 0.0 && u <= f->nx - 1.0 && v <= f->ny - 1.0)) {
+                if (f->outside_window_px <= radius_px) {
+                    return true;
+                }
+                continue;
+            }
+            if (std::abs(f->at(std::uint32_t(u), std::uint32_t(v))) <= radius_px) {
+                return true;
+            }
+        }
+        return false;
+    };
+    bool changed = false;
+    for (Contour& c : set.contours) {
+        if (c.label != label) {
+            continue;
+        }
+        const std::size_t n = c.points.size();
+        const std::size_t m = c.simplified.size();
+        std::vector<bool> keep(n, false);
+        std::vector<double> deviation(n, 0.0);  // of the edge starting at each kept point
+        bool grew = false;
+        for (std::size_t e = 0; e < m; ++e) {
+            const std::uint32_t a = c.simplified[e];
+            const std::uint32_t b = c.simplified[(e + 1) % m];
+            keep[a] = true;
+            deviation[a] = c.edge_deviation_px[e];
+            const std::size_t span = (b + n - a) % n;
+            if (span <= 1) {
+                continue;
+            }
+            bool expand = false;
+            for (std::size_t s = 0; s <= span && !expand; ++s) {
+                expand = near(c.points[(a + s) % n]);
+            }
+            if (expand) {
+                for (std::size_t s = 0; s < span; ++s) {
+                    keep[(a + s) % n] = true;
+                    deviation[(a + s) % n] = 0.0;
+                }
+                grew = true;
+            }
+        }
+        if (!grew) {
+            continue;
+        }
+        changed = true;
+        c.simplified.clear();
+        c.edge_deviation_px.clear();
+        for (std::uint32_t i = 0; i < n; ++i) {
+            if (keep[i]) {
+                c.simplified.push_back(i);
+                c.edge_deviation_px.push_back(deviation[i]);
+            }
+        }
+    }
+    return changed;
+}
 
 std::vector<ObjectSurface> triangulate_surfaces(const SliceStack& stack,
                                                 const SliceContours& contours,

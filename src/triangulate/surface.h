@@ -56,9 +56,15 @@ struct ObjectSurface {
     /// simplified ones overlapped their neighbours unlike the pixels.
     std::uint32_t unsimplified_slices = 0;
     std::vector<std::uint32_t> unsimplified;  ///< those slices, increasing
+    /// Slices where only the simplified edges near a neighbouring slice's contours went back to
+    /// their original points (unsimplify_near_neighbours) for the same reason, and the contours
+    /// then overlapped their neighbours like the pixels; increasing, none of them in
+    /// `unsimplified` (some may be in `at_corners` too: that was done first).
+    std::vector<std::uint32_t> partly_unsimplified;
     /// Slices whose contours of this label were simplified again with vertices at pixel corners
     /// only (SimplifyOptions::edge_midpoints off), for the same reason, and then overlapped
-    /// their neighbours like the pixels; increasing, none of them in `unsimplified`.
+    /// their neighbours like the pixels (or after `partly_unsimplified`); increasing, none of
+    /// them in `unsimplified`.
     std::vector<std::uint32_t> at_corners;
     /// Last-resort fallback count: slabs split at the pixels' AND layer (a contour level half
     /// way between the slices) because even the original contours overlapped unlike the pixels.
@@ -86,6 +92,23 @@ struct ObjectSurface {
     double grid_step = 0.0;
     double grid_shift_px = 0.0;
 };
+
+/// The fallback's radius (px) around a neighbouring slice's contours within which simplified
+/// edges go back to their original points: the two contours' simplification tolerances plus
+/// half a pixel (the contour sites lie every half pixel).
+double unsimplify_radius_px(double tolerance_px);
+
+/// The local fallback for slice `slice` of `label`: every simplified edge of the label's
+/// contours in `set` that replaces an original point within `radius_px` of an original contour
+/// of the label on slice - 1 or slice + 1 (by those slices' distance fields in `fields`) is
+/// replaced by its original points; the rest stays as it is. Only where the contours of
+/// neighbouring slices come that close can simplification change how they overlap. Returns
+/// whether any edge changed. The result may cross itself: the caller checks.
+bool unsimplify_near_neighbours(SliceContourSet& set,
+                                std::uint16_t label,
+                                const std::vector<SliceDistanceFields>& fields,
+                                std::uint32_t slice,
+                                double radius_px);
 
 /// Triangulates every label of the stack (paper section 5) into one closed surface each.
 ///

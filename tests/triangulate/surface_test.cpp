@@ -94,9 +94,9 @@ SurfaceSummary summarise(const Reconstruction& result,
             }
         }
         // Slice fidelity: the section of the surface with every slice plane is the contour the
-        // surface was built from (simplified; simplified at pixel corners or original where a
-        // fallback used that), up to the quantize stage's declared move of slice-plane
-        // vertices (0 when not snapped).
+        // surface was built from (simplified; simplified at pixel corners, original near the
+        // neighbouring slices' contours, or original where a fallback used that), up to the
+        // quantize stage's declared move of slice-plane vertices (0 when not snapped).
         for (std::uint32_t k = 0; k < result.contours.slices.size(); ++k) {
             SliceContourSet set = result.contours.slices[k];
             const bool original =
@@ -106,6 +106,11 @@ SurfaceSummary summarise(const Reconstruction& result,
                 corners.tolerance_px = result.contours.tolerance_px;
                 corners.edge_midpoints = false;
                 resimplify_label(set, surface.label, corners);
+            }
+            if (std::binary_search(surface.partly_unsimplified.begin(),
+                                   surface.partly_unsimplified.end(), k)) {
+                unsimplify_near_neighbours(set, surface.label, result.fields, k,
+                                           unsimplify_radius_px(result.contours.tolerance_px));
             }
             for (Contour& c : set.contours) {
                 if (original) {
