@@ -78,6 +78,21 @@ mutant input-label-fraction src/input/detail/voxel_decode.h \
     'std::abs(value - rounded) > 1e-4' \
     'std::abs(value - rounded) > 0.5' \
     'input_test' '^(ReadNifti|WriteNifti|ReadNrrd|ReaderLimits)'
+mutant input-intensity-agreement src/input/label_map_check.cpp \
+    'constexpr double kMaxAgreement = 0.5;' \
+    'constexpr double kMaxAgreement = 0.05;' \
+    'input_test' '^LabelMapCheck'
+
+# the command line (src/cli)
+mutant cli-unsnapped-object-dropped src/cli/commands.cpp \
+    '            throw Error(ErrorCode::Internal, "export: " + scene[i].name + " (label " +' \
+    '            continue;
+            throw Error(ErrorCode::Internal, "export: " + scene[i].name + " (label " +' \
+    'strata_cli cli_test' '^CliOutput\.ObjectNotOnAGrid'
+mutant cli-label-map-unchecked src/cli/commands.cpp \
+    '        check_is_label_map(stack);' \
+    '' \
+    'strata_cli cli_test' '^CliOutput\.IntensityImage'
 
 # contours: tracing, links, Douglas-Peucker (src/contours)
 mutant contours-dp-tolerance src/contours/simplify_contours.cpp \
@@ -167,7 +182,7 @@ mutant simplify-piece-deviation-dropped src/simplify/slice_error.cpp \
 mutant simplify-keep-fraction src/simplify/multires_dag.cpp \
     'collapse.target_triangles = std::size_t(double(before) * options_.keep_fraction);' \
     'collapse.target_triangles = std::size_t(double(before) * 0.6);' \
-    'simplify_test' '^(SimplifyBudget|MultiresDag)'
+    'simplify_test' '^(SimplifyBudget|SimplifyKeepFraction|MultiresDag)'
 
 # exporters (exporters/)
 mutant export-bound-rounded-down exporters/progressive_format.cpp \
@@ -182,7 +197,7 @@ mutant export-sphere-rounded-down exporters/progressive_gltf.cpp \
     while (double(r) < radius) {' \
     '    float r = to_float(radius);
     while (false) {' \
-    'exporters_test' '^(ProgressiveGltf|ReadProgressiveGltf|DracoChunk)'
+    'exporters_test' '^(ProgressiveGltf|ReadProgressiveGltf|DracoChunk|SphereRounding)'
 mutant export-draco-range-short exporters/detail/draco_chunk.cpp \
     'return static_cast<float>(in.step * (std::ldexp(1.0, b) - 1.0));' \
     'return static_cast<float>(in.step * (std::ldexp(1.0, b) - 2.0));' \
