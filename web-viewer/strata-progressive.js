@@ -72,15 +72,21 @@ const kDefaults = {
     cull: true, // refine only groups whose sphere meets the view frustum
     normals: true, // shading normals over the drawn cut (false: the base's normals, chunks flat)
     normalsMs: 8, // main-thread time per update for recomputing objects' normals (at least one object)
+    normalsFullShare: 0.5, // recompute an object's normals over its whole cut when more of it changed
+    attachMs: 8, // main-thread time per update for attaching decoded chunks (at least one chunk)
     memoryBudget: 4e6, // triangles of loaded chunks kept; beyond it, chunks off the cut are unloaded
-    maxRangeGap: 32768, // merge chunk ranges of one buffer closer than this into one request
+    // merge chunk ranges of one buffer closer than this into one request: 4 kB, less than an
+    // average chunk, so that merging saves requests without fetching many chunks the view does
+    // not want (32 kB fetched 72 % of the torso's bytes at tau 2 where 4 kB fetched 36 %)
+    maxRangeGap: 4096,
     maxRangeBytes: 1 << 20, // ... up to this length
     source: null, // set by loadStrataModel: { kind: 'glb-range', url, binOffset, length, prefix }
     initialBytes: 0, // bytes fetched before GLTFLoader ran (loadStrataModel: the JSON)
     initialRanges: [], // ... as [url, start, end) triples (distinct bytes are counted once)
     totalBytes: 0, // total size of the model's files, when known
     fetch: null, // fetch function (default globalThis.fetch)
-    onChange: null, // called when a chunk arrives (an app that renders on demand re-renders)
+    onChange: null, // called when a chunk arrives or the setup is done (an app that renders on demand re-renders)
+    deferSetup: true, // the first frame shows the base before the plugin's setup (afterRoot)
 };
 
 /// A User Timing mark (for benchmarks: web-viewer/bench/first-frame.mjs reads them).
@@ -177,6 +183,66 @@ function scalarValues(attribute) {
 }
 
 // ------------------------------------------------------------------------------------------------
+// vertex ids
+
+/// Exact positions -> dense ids: an open-addressing hash table on the three float32 bit patterns
+/// (the positions of one surface lie on one grid, so equal positions are bit-identical; -0 is
+/// taken as +0). A Map keyed by strings did the same at several times the cost.
+class VertexTable {
+    constructor() {
+        this.capacity = 1 << 12;
+        this.keys = new Uint32Array(3 * this.capacity);
+        this.ids = new Int32Array(this.capacity).fill(-1);
+        this.size = 0;
+    }
+
+    static slot(x, y, z, mask) {
+        let h =
+            Math.imul(x, 0x9e3779b1) ^ Math.imul(y ^ (y >>> 16), 0x85ebca77) ^ Math.imul(z ^ (z >>> 13), 0xc2b2ae3d);
+        h ^= h >>> 15;
+        h = Math.imul(h, 0x2c1b3c6d);
+        h ^= h >>> 12;
+        return h & mask;
+    }
+
+    /// The id of position bits (x, y, z), or `next` (then stored as its id) when new.
+    idOf(x, y, z, next) {
+        if (x === 0x80000000) x = 0;
+        if (y === 0x80000000) y = 0;
+        if (z === 0x80000000) z = 0;
+        if (2 * (this.size + 1) > this.capacity) this.grow();
+        const mask = this.capacity - 1;
+        for (let i = VertexTable.slot(x, y, z, mask); ; i = (i + 1) & mask) {
+            const id = this.ids[i];
+            if (id < 0) {
+                this.keys[3 * i] = x;
+                this.keys[3 * i + 1] = y;
+                this.keys[3 * i + 2] = z;
+                this.ids[i] = next;
+                ++this.size;
+                return next;
+            }
+            if (this.keys[3 * i] === x && this.keys[3 * i + 1] === y && this.keys[3 * i + 2] === z) return id;
+        }
+    }
+
+    grow() {
+        const { keys, ids } = this;
+        this.capacity *= 2;
+        this.keys = new Uint32Array(3 * this.capacity);
+        this.ids = new Int32Array(this.capacity).fill(-1);
+        const mask = this.capacity - 1;
+        for (let j = 0; j < ids.length; ++j) {
+            if (ids[j] < 0) continue;
+            let i = VertexTable.slot(keys[3 * j], keys[3 * j + 1], keys[3 * j + 2], mask);
+            while (this.ids[i] >= 0) i = (i + 1) & mask;
+            this.keys.set(keys.subarray(3 * j, 3 * j + 3), 3 * i);
+            this.ids[i] = ids[j];
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------------------
 // one object
 
 /// The controller of one object node: its DAG, its cluster meshes and their state.
@@ -194,8 +260,14 @@ export class StrataObjectController {
         const nc = table.clusters.length;
         this.meshes = new Array(nc).fill(null); // cluster -> Mesh (null until loaded)
         // vertex ids of the object: one per distinct position (exact), across clusters and levels
-        this.vertexIds = new Map();
+        this.vertexIds = new VertexTable();
         this.vertexCount = 0;
+        // for the incremental normals: per cluster its border vertices (object ids; kept after an
+        // unload), per border vertex the loaded clusters having it on their border, and which
+        // clusters were drawn when the normals were last brought up to date (null: never)
+        this.border = new Array(nc).fill(null);
+        this.clustersAt = new Map();
+        this.normalsCut = null;
         this.positionsMm = new Float64Array(3 * 4096);
         object.updateMatrix();
         this.toMm = object.matrix.clone().setPosition(0, 0, 0); // local -> patient mm (linear part)
@@ -314,21 +386,20 @@ export class StrataObjectController {
     /// coordinates for the normals).
     vertexIdsOf(positions) {
         const out = new Uint32Array(positions.length / 3);
+        const bits = new Uint32Array(positions.buffer, positions.byteOffset, positions.length);
         const e = this.toMm.elements;
         for (let p = 0; p < out.length; ++p) {
-            const x = positions[3 * p];
-            const y = positions[3 * p + 1];
-            const z = positions[3 * p + 2];
-            const key = `${x},${y},${z}`;
-            let id = this.vertexIds.get(key);
-            if (id === undefined) {
-                id = this.vertexCount++;
-                this.vertexIds.set(key, id);
+            const id = this.vertexIds.idOf(bits[3 * p], bits[3 * p + 1], bits[3 * p + 2], this.vertexCount);
+            if (id === this.vertexCount) {
+                ++this.vertexCount;
                 if (3 * this.vertexCount > this.positionsMm.length) {
                     const grown = new Float64Array(2 * this.positionsMm.length);
                     grown.set(this.positionsMm);
                     this.positionsMm = grown;
                 }
+                const x = positions[3 * p];
+                const y = positions[3 * p + 1];
+                const z = positions[3 * p + 2];
                 this.positionsMm[3 * id] = e[0] * x + e[4] * y + e[8] * z;
                 this.positionsMm[3 * id + 1] = e[1] * x + e[5] * y + e[9] * z;
                 this.positionsMm[3 * id + 2] = e[2] * x + e[6] * y + e[10] * z;
@@ -340,6 +411,7 @@ export class StrataObjectController {
 
     /// Makes mesh the drawable of cluster c: its own morph material, userData for picking.
     adopt(c, mesh) {
+        this.setBorder(c, mesh);
         mesh.material = morphMaterial(this.material);
         mesh.userData.strataCluster = c;
         mesh.userData.strataObject = this;
@@ -347,6 +419,48 @@ export class StrataObjectController {
         if (this.colorByLevel) this.applyLevelColor(c, mesh.material);
         this.meshes[c] = mesh;
         this.object.add(mesh);
+    }
+
+    /// Records the border vertices of cluster c's mesh (the ends of edges used by one of its
+    /// triangles only): two clusters of a drawn cut touch exactly at shared border vertices.
+    setBorder(c, mesh) {
+        const [a, b] = mesh.userData.range;
+        const index = mesh.geometry.index.array;
+        const vertexOf = mesh.geometry.userData.vertexOf;
+        const edges = new Map();
+        const kShift = 2 ** 26; // object vertex ids below 2^26: the key is exact
+        for (let i = a; i < b; i += 3) {
+            for (let k = 0; k < 3; ++k) {
+                const u = vertexOf[index[i + k]];
+                const v = vertexOf[index[i + ((k + 1) % 3)]];
+                const key = u < v ? u * kShift + v : v * kShift + u;
+                edges.set(key, (edges.get(key) ?? 0) + 1);
+            }
+        }
+        const vertices = new Set();
+        for (const [key, n] of edges) {
+            if (n !== 1) continue;
+            vertices.add(Math.floor(key / kShift));
+            vertices.add(key % kShift);
+        }
+        if (this.border[c] !== null) this.dropBorder(c);
+        this.border[c] = Uint32Array.from(vertices);
+        for (const v of this.border[c]) {
+            const list = this.clustersAt.get(v);
+            if (list === undefined) this.clustersAt.set(v, [c]);
+            else list.push(c);
+        }
+    }
+
+    /// Forgets cluster c in clustersAt (its border is kept: a cluster unloaded after the normals
+    /// were computed still tells which neighbours its disappearance touches).
+    dropBorder(c) {
+        for (const v of this.border[c]) {
+            const list = this.clustersAt.get(v);
+            const i = list?.indexOf(c) ?? -1;
+            if (i >= 0) list.splice(i, 1);
+            if (list?.length === 0) this.clustersAt.delete(v);
+        }
     }
 
     /// The chunk of group g arrived, decoded: { positions, cluster, slot, index } (typed arrays).
@@ -363,11 +477,7 @@ export class StrataObjectController {
             this.adopt(c, this.clusterMesh(chunk, start[k], start[k + 1], c));
         });
         // the chunk's own normals until the welded ones over the drawn cut are computed
-        if (this.plugin.options.normals) {
-            const dirty = this.normalsDirtySince;
-            this.updateNormals(group.consumed);
-            this.normalsDirtySince = dirty;
-        }
+        if (this.plugin.options.normals) this.computeNormals(group.consumed, null);
         this.groupState[g] = 2;
     }
 
@@ -379,6 +489,7 @@ export class StrataObjectController {
             const mesh = this.meshes[c];
             if (mesh === null) continue;
             this.object.remove(mesh);
+            this.dropBorder(c);
             mesh.material.dispose();
             mesh.geometry.dispose();
             chunk = mesh.geometry;
@@ -478,16 +589,64 @@ export class StrataObjectController {
         return changed;
     }
 
-    /// Shading normals over the drawn clusters, welded by position across clusters and levels
-    /// (strata-decode.js shadingNormals, in patient mm), written to every drawn cluster's points
-    /// in the object's local frame.
+    /// Brings the shading normals up to date with the drawn clusters (strata-decode.js
+    /// shadingNormals, in patient mm, welded by position across clusters and levels), written to
+    /// every drawn cluster's points in the object's local frame. Incremental: only the drawn
+    /// clusters that changed or touch a cluster that changed (share a border vertex with it) are
+    /// rewritten, computed over them and the drawn clusters touching them (the 3 rings of the
+    /// normals reach beyond a cluster's neighbours only through a neighbour less than 4 edges
+    /// wide); the whole cut when more than options.normalsFullShare of it changed.
     updateNormals(drawn) {
+        const nc = this.meshes.length;
+        const now = new Uint8Array(nc);
+        for (const c of drawn) if (this.meshes[c] !== null) now[c] = 1;
+        const previous = this.normalsCut;
+        this.normalsCut = now;
+        this.normalsDirtySince = null;
+        if (previous === null) {
+            this.computeNormals(drawn, null);
+            ++this.plugin.stats.normalsFull;
+            return;
+        }
+        const write = new Uint8Array(nc);
+        let changed = 0;
+        const touch = (c, mark) => {
+            for (const v of this.border[c] ?? []) {
+                for (const n of this.clustersAt.get(v) ?? []) if (now[n]) mark[n] = 1;
+            }
+        };
+        for (let c = 0; c < nc; ++c) {
+            if (now[c] === previous[c]) continue;
+            ++changed;
+            if (now[c]) write[c] = 1;
+            touch(c, write);
+        }
+        if (changed === 0) return;
+        const rewritten = drawn.filter((c) => write[c]);
+        if (rewritten.length > this.plugin.options.normalsFullShare * drawn.length) {
+            this.computeNormals(drawn, null);
+            ++this.plugin.stats.normalsFull;
+            return;
+        }
+        const context = Uint8Array.from(write);
+        for (const c of rewritten) touch(c, context);
+        this.computeNormals(
+            drawn.filter((c) => context[c]),
+            write,
+        );
+        ++this.plugin.stats.normalsIncremental;
+    }
+
+    /// Shading normals over the triangles of `clusters`, welded by position, written to the points
+    /// of those clusters c with write[c] (write null: all of them).
+    computeNormals(clusters, write) {
+        const drawn = clusters;
         let count = 0;
         for (const c of drawn) {
             const mesh = this.meshes[c];
             if (mesh !== null) count += mesh.userData.range[1] - mesh.userData.range[0];
         }
-        // the drawn vertices, renumbered 0 .. used - 1
+        // the vertices used, renumbered 0 .. used - 1
         const local = new Int32Array(this.vertexCount).fill(-1);
         const positions = [];
         const triangles = new Uint32Array(count);
@@ -507,15 +666,13 @@ export class StrataObjectController {
                 triangles[n++] = local[v];
             }
         }
-        const localNormals = shadingNormals(Float64Array.from(positions), triangles, positions.length / 3);
-        this.normalsDirtySince = null;
-        const normalsMm = localNormals;
+        const normalsMm = shadingNormals(Float64Array.from(positions), triangles, positions.length / 3);
         // mm -> local: n_local ~ M^T n_mm (three.js then applies the normal matrix, inverse transpose of M)
         const e = this.toMm.elements;
         const touched = new Set();
         for (const c of drawn) {
             const mesh = this.meshes[c];
-            if (mesh === null) continue;
+            if (mesh === null || (write !== null && !write[c])) continue;
             const [a, b] = mesh.userData.range;
             const index = mesh.geometry.index.array;
             const vertexOf = mesh.geometry.userData.vertexOf;
@@ -605,6 +762,9 @@ export class StrataProgressivePlugin {
             evicted: 0,
             decodeWaitMs: 0, // summed time chunks waited for the Draco workers
             attachMs: 0, // main-thread time spent resolving slots and building cluster meshes
+            normalsFull: 0, // normals computed over a whole drawn cut
+            normalsIncremental: 0, // ... over the part of it that changed
+            normalsTimeMs: 0, // main-thread time spent on normals
         };
         this.fetcher = new RangeFetcher(
             this.options.fetch ?? globalThis.fetch.bind(globalThis),
@@ -619,8 +779,12 @@ export class StrataProgressivePlugin {
         this.batches = new Set(); // fetches in flight: { items, abort, fetched }
         this.requests = 0; // HTTP requests in flight
         this.decoding = 0; // chunks requested and not yet attached
+        this.arrived = []; // decoded chunks waiting to be attached by an update: { controller, group, decoded }
         this.changed = false; // something to draw differently since the last update
         this.sceneRoot = null;
+        this.setupState = 'waiting'; // 'running', 'done' (afterRoot, settingUp)
+        this.updates = 0;
+        this.ready = null; // a Promise resolved when the setup is done (controllers made)
         this.last = null; // the last update's summary
         this.errors = [];
     }
@@ -696,11 +860,49 @@ export class StrataProgressivePlugin {
         return this.fetcher.range(url, start, end);
     }
 
+    /// GLTFLoader has built the scene (the base meshes, drawable as they are: Draco-decoded with
+    /// their shading normals). With options.deferSetup the plugin's own setup (DAG tables, the
+    /// base split into cluster meshes, welded normals) waits for the second update, so that the
+    /// first frame shows the base without waiting for it; strata.ready resolves after it.
     async afterRoot(result) {
         mark('strata:after-root');
+        this.sceneRoot = result.scene;
+        result.userData.strata = this;
+        if (this.options.deferSetup) {
+            this.setupState = 'waiting';
+            this.setupResult = result;
+            this.ready = new Promise((resolve) => (this.resolveReady = resolve));
+        } else {
+            await this.setup(result);
+            this.setupState = 'done';
+            this.ready = Promise.resolve();
+        }
+        return null;
+    }
+
+    /// Starts the deferred setup at the second update (the first frame drew the base); true while
+    /// it is not done.
+    settingUp() {
+        if (this.setupState === 'done') return false;
+        if (this.setupState === 'waiting' && this.updates > 0) {
+            this.setupState = 'running';
+            this.setup(this.setupResult).finally(() => {
+                this.setupState = 'done';
+                this.setupResult = null;
+                this.changed = true;
+                this.resolveReady();
+                this.options.onChange?.(null, null);
+            });
+        }
+        ++this.updates;
+        return true;
+    }
+
+    /// One controller per object node with the extension (an object whose data is invalid keeps
+    /// its base mesh: schema/README.md, Validation).
+    async setup(result) {
         const setupStart = performance.now();
         const json = this.parser.json;
-        this.sceneRoot = result.scene;
         result.scene.updateMatrixWorld(true);
         const objects = new Map();
         result.scene.traverse((o) => {
@@ -731,10 +933,8 @@ export class StrataProgressivePlugin {
                 console.warn(`${kExtension}: node ${nodeIndex} uses its base mesh only: ${error.message ?? error}`);
             }
         }
-        result.userData.strata = this;
         this.stats.setupMs = performance.now() - setupStart;
         mark('strata:setup-done');
-        return null;
     }
 
     // --- selection -------------------------------------------------------------------------------
@@ -778,6 +978,21 @@ export class StrataProgressivePlugin {
     /// { triangles, maxErrorPx, maxError (m), budgetLimited, wanted, roiTriangles, changed (the
     /// picture differs from the last update's: an app rendering on demand renders) }.
     update(camera, viewportHeightPx, tauPx = 1, budget = Infinity, options = {}) {
+        if (this.settingUp()) {
+            this.last = {
+                triangles: 0,
+                maxError: 0,
+                maxErrorPx: 0,
+                budgetLimited: false,
+                wanted: 0,
+                roiTriangles: 0,
+                refinedGroups: 0,
+                blending: false,
+                changed: false,
+            };
+            return this.last;
+        }
+        this.attachArrived();
         const now = performance.now();
         const controllers = (options.controllers ?? this.controllers).filter(
             (c) => c.object.visible && isShown(c.object),
@@ -821,11 +1036,13 @@ export class StrataProgressivePlugin {
             const dirty = controllers.filter((c) => c.normalsDirtySince != null);
             dirty.sort((a, b) => a.normalsDirtySince - b.normalsDirtySince);
             const deadline = performance.now() + this.options.normalsMs;
+            const t0 = performance.now();
             for (const [i, controller] of dirty.entries()) {
                 if (i > 0 && performance.now() > deadline) break;
                 controller.updateNormals(controller.drawn);
                 changed = true;
             }
+            this.stats.normalsTimeMs += performance.now() - t0;
         }
         // wanted groups (a cluster is wanted when its consumer's chunk is missing), best first
         const seen = new Set();
@@ -858,6 +1075,7 @@ export class StrataProgressivePlugin {
     /// Nothing loading, nothing wanted, no time blend running.
     get idle() {
         return (
+            this.setupState === 'done' &&
             this.decoding === 0 &&
             this.queue.length === 0 &&
             !this.last?.blending &&
@@ -1045,6 +1263,7 @@ export class StrataProgressivePlugin {
         this.pump(); // the request slot is free
         await Promise.all(
             batch.items.map(async ({ controller, group, range }) => {
+                let queued = false;
                 try {
                     const chunk = bytes.slice(range.start - batch.start, range.end - batch.start);
                     this.stats.chunkBytesLoaded += chunk.byteLength;
@@ -1052,10 +1271,9 @@ export class StrataProgressivePlugin {
                     const decoded = await this.decodeChunk(chunk);
                     this.stats.decodeWaitMs += performance.now() - d0;
                     if (controller.groupState[group] !== 1) return; // unloaded meanwhile
-                    const t0 = performance.now();
-                    controller.attachChunk(group, decoded);
-                    this.stats.attachMs += performance.now() - t0;
-                    ++this.stats.chunksLoaded;
+                    // attached by the next update, within its time budget (attachArrived)
+                    this.arrived.push({ controller, group, decoded });
+                    queued = true;
                     this.changed = true;
                     this.options.onChange?.(controller, group);
                 } catch (error) {
@@ -1064,11 +1282,41 @@ export class StrataProgressivePlugin {
                     this.errors.push(`${controller.name} group ${group}: ${error.message ?? error}`);
                     console.error(`${kExtension}: ${controller.name} group ${group}: ${error.message ?? error}`);
                 } finally {
-                    --this.decoding;
-                    this.pump();
+                    if (!queued) {
+                        --this.decoding;
+                        this.pump();
+                    }
                 }
             }),
         );
+    }
+
+    /// Attaches decoded chunks (slots resolved, cluster meshes built, their own normals) for at
+    /// most options.attachMs of main-thread time (at least one chunk), so that a frame never
+    /// waits for a whole burst of arrivals.
+    attachArrived() {
+        const deadline = performance.now() + this.options.attachMs;
+        let n = 0;
+        while (this.arrived.length > 0 && (n === 0 || performance.now() < deadline)) {
+            const { controller, group, decoded } = this.arrived.shift();
+            ++n;
+            try {
+                if (controller.groupState[group] !== 1) continue;
+                const t0 = performance.now();
+                controller.attachChunk(group, decoded);
+                this.stats.attachMs += performance.now() - t0;
+                ++this.stats.chunksLoaded;
+                this.changed = true;
+            } catch (error) {
+                controller.groupState[group] = 3;
+                ++this.stats.failures;
+                this.errors.push(`${controller.name} group ${group}: ${error.message ?? error}`);
+                console.error(`${kExtension}: ${controller.name} group ${group}: ${error.message ?? error}`);
+            } finally {
+                --this.decoding;
+            }
+        }
+        if (n > 0) this.pump();
     }
 
     /// Decodes a chunk (ArrayBuffer) with GLTFLoader's DRACOLoader: { positions, cluster, slot,
@@ -1140,6 +1388,11 @@ function isShown(object) {
 // ------------------------------------------------------------------------------------------------
 // opening a model by URL with streaming
 
+/// The default first request of a streamed .glb: 24 kB holds the torso's GLB header, JSON, DAG
+/// tables and base (18.7 kB); larger models fetch the rest of their base with one more request.
+/// 64 kB took a third of the torso's file before anything was wanted.
+export const kPrefixBytes = 24 * 1024;
+
 /// Opens a progressive model by URL, streaming when it can:
 ///   * .glb on a server that supports Range requests: reads the header and the JSON by ranges,
 ///     then only the base meshes' bytes; chunks are fetched later by ranges (glb-range source);
@@ -1152,7 +1405,7 @@ function isShown(object) {
 /// result.userData.strata is the plugin.
 export async function loadStrataModel(
     url,
-    { createLoader, pluginOptions = {}, fetch: fetchFn = null, prefixBytes = 64 * 1024 } = {},
+    { createLoader, pluginOptions = {}, fetch: fetchFn = null, prefixBytes = kPrefixBytes } = {},
 ) {
     const doFetch = fetchFn ?? globalThis.fetch.bind(globalThis);
     const absolute = new URL(url, globalThis.location?.href ?? undefined).href;

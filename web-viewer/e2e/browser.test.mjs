@@ -56,19 +56,53 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
             assert.ok(percent !== null && Number(percent[1]) <= 100, `the HUD says: ${s.hud}`);
             return s;
         };
-        const idle = async () =>
+        // the plugin's incremental normals against a recomputation over the whole drawn cut
+        // (computeNormals overwrites them: the next check compares with this state again)
+        let normalsChecked = 0;
+        let normalsIncremental = 0;
+        const checkNormals = async (when) => {
+            const r = await hook(() => {
+                let worst = 0;
+                let compared = 0;
+                for (const c of window.strataViewer.strata.controllers) {
+                    const before = new Map();
+                    for (const k of c.drawn) before.set(k, c.meshes[k].geometry.getAttribute('normal').array.slice());
+                    c.computeNormals(c.drawn, null);
+                    for (const k of c.drawn) {
+                        const mesh = c.meshes[k];
+                        const a = before.get(k);
+                        const b = mesh.geometry.getAttribute('normal').array;
+                        const index = mesh.geometry.index.array;
+                        for (let i = mesh.userData.range[0]; i < mesh.userData.range[1]; ++i) {
+                            const p = 3 * index[i];
+                            worst = Math.max(worst, Math.hypot(a[p] - b[p], a[p + 1] - b[p + 1], a[p + 2] - b[p + 2]));
+                            ++compared;
+                        }
+                    }
+                }
+                return { worst, compared, incremental: window.strataViewer.strata.stats.normalsIncremental };
+            });
+            normalsChecked += r.compared;
+            normalsIncremental = r.incremental;
+            assert.ok(r.worst < 1e-5, `${when}: the normals differ by ${r.worst} from a recomputation over the cut`);
+        };
+        const idle = async (when = null) => {
             assert.ok(await hook(() => window.strataViewer.idle(30000)), 'the viewer did not settle in 30 s');
+            if (when !== null) await checkNormals(when);
+        };
         const shot = async (name) => {
             const path = join(kArtifacts, `${name}.png`);
             await page.screenshot({ path });
             t.diagnostic(`screenshot ${path}`);
         };
 
-        // a first request of 16 KiB: the default phantom's file is small enough that the
-        // default 64 KiB would hold nearly all of it, and zooming in would stream nothing
-        await page.goto(`${server.url}&tau=${kTau}&prefix=16384&preserve`);
+        // a first request of 16 KiB: the default phantom's file is small enough that a larger
+        // one would hold much of it, and zooming in would stream little
+        // normals-full=1: the normals are always updated incrementally (over the part of the cut
+        // that changed), which the checks at each settled view compare with a full recomputation
+        await page.goto(`${server.url}&tau=${kTau}&prefix=16384&preserve&normals-full=1`);
         assert.ok(await hook(() => window.strataViewer.ready), 'the model did not load');
-        await idle();
+        await idle('first view');
         const first = await state();
         t.diagnostic(
             `first view: ${first.triangles} triangles, ${first.chunksLoaded}/${first.chunksTotal} chunks, ` +
@@ -162,7 +196,7 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
             await hook(() => window.strataViewer.nextFrame());
             morphing = Math.max(morphing, (await hook(() => window.strataViewer.morphWeights())).morphing);
         }
-        await idle();
+        await idle('zoomed in');
         const zoomedIn = await state();
         t.diagnostic(
             `zoomed in: ${zoomedIn.triangles} triangles, ${zoomedIn.chunksLoaded} chunks, ${zoomedIn.bytesLoaded} bytes, ` +
@@ -181,7 +215,7 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
         // zoom out: coarser
         await hook(() => window.strataViewer.dolly((1 / 0.35) * 2.5));
         for (let i = 0; i < 3; ++i) await hook(() => window.strataViewer.nextFrame());
-        await idle();
+        await idle('zoomed out');
         const zoomedOut = await state();
         t.diagnostic(`zoomed out: ${zoomedOut.triangles} triangles`);
         assert.ok(
@@ -229,7 +263,7 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
             el.dispatchEvent(new Event('input'));
         });
         for (let i = 0; i < 3; ++i) await hook(() => window.strataViewer.nextFrame());
-        await idle();
+        await idle('region of interest');
         const after = await state();
         // the groups the factor refined, and whether their spheres meet the region (the dags'
         // spheres and the region are in the scene frame)
@@ -245,6 +279,8 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
                 ),
             { beforeRefined: refinedBefore, roi: after.roi },
         );
+        t.diagnostic(`normals: ${normalsChecked} points checked, ${normalsIncremental} incremental updates`);
+        assert.ok(normalsIncremental > 0, 'the normals were never updated incrementally');
         t.diagnostic(
             `region of interest at ${picked.center.map((x) => (1000 * x).toFixed(1))} mm, radius ${(1000 * picked.radius).toFixed(1)} mm: ` +
                 `${before.roiTriangles} -> ${after.roiTriangles} triangles in the region, ${before.triangles} -> ${after.triangles} in all`,
