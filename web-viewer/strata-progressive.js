@@ -591,11 +591,13 @@ export class StrataObjectController {
 
     /// Brings the shading normals up to date with the drawn clusters (strata-decode.js
     /// shadingNormals, in patient mm, welded by position across clusters and levels), written to
-    /// every drawn cluster's points in the object's local frame. Incremental: only the drawn
-    /// clusters that changed or touch a cluster that changed (share a border vertex with it) are
-    /// rewritten, computed over them and the drawn clusters touching them (the 3 rings of the
-    /// normals reach beyond a cluster's neighbours only through a neighbour less than 4 edges
-    /// wide); the whole cut when more than options.normalsFullShare of it changed.
+    /// every drawn cluster's points in the object's local frame. Incremental and exact: a
+    /// vertex's normal depends on the triangles within 4 edges of it (3 rings of angle-weighted
+    /// normals), so only the vertices within 3 edges of a cluster that appeared or disappeared
+    /// are rewritten, computed over the drawn clusters within 7 edges of one (found by a
+    /// breadth-first search that grows the context, cluster by cluster, where it reaches a
+    /// border vertex of a drawn cluster outside it); the whole cut when the context grows beyond
+    /// options.normalsFullShare of it.
     updateNormals(drawn) {
         const nc = this.meshes.length;
         const now = new Uint8Array(nc);
@@ -603,43 +605,112 @@ export class StrataObjectController {
         const previous = this.normalsCut;
         this.normalsCut = now;
         this.normalsDirtySince = null;
-        if (previous === null) {
+        const full = () => {
             this.computeNormals(drawn, null);
             ++this.plugin.stats.normalsFull;
-            return;
-        }
-        const write = new Uint8Array(nc);
-        let changed = 0;
-        const touch = (c, mark) => {
-            for (const v of this.border[c] ?? []) {
-                for (const n of this.clustersAt.get(v) ?? []) if (now[n]) mark[n] = 1;
-            }
         };
+        if (previous === null) return full();
+        // seeds: the vertices of the clusters that appeared, and the border vertices of those that
+        // disappeared (the only ones of theirs that can still be drawn)
+        const context = new Uint8Array(nc);
+        let inContext = 0;
+        const add = (n) => {
+            if (now[n] && !context[n]) {
+                context[n] = 1;
+                ++inContext;
+                return true;
+            }
+            return false;
+        };
+        const seeds = [];
         for (let c = 0; c < nc; ++c) {
             if (now[c] === previous[c]) continue;
-            ++changed;
-            if (now[c]) write[c] = 1;
-            touch(c, write);
+            if (now[c]) {
+                add(c);
+                const mesh = this.meshes[c];
+                const [a, b] = mesh.userData.range;
+                const index = mesh.geometry.index.array;
+                const vertexOf = mesh.geometry.userData.vertexOf;
+                for (let i = a; i < b; ++i) seeds.push(vertexOf[index[i]]);
+            } else {
+                for (const v of this.border[c] ?? []) seeds.push(v);
+            }
+            for (const v of this.border[c] ?? []) for (const n of this.clustersAt.get(v) ?? []) add(n);
         }
-        if (changed === 0) return;
-        const rewritten = drawn.filter((c) => write[c]);
-        if (rewritten.length > this.plugin.options.normalsFullShare * drawn.length) {
-            this.computeNormals(drawn, null);
-            ++this.plugin.stats.normalsFull;
+        if (seeds.length === 0 && inContext === 0) return;
+        const kReach = 7;
+        const kWrite = 3;
+        const depth = new Int8Array(this.vertexCount);
+        for (;;) {
+            if (inContext > this.plugin.options.normalsFullShare * drawn.length) return full();
+            // the context's vertex adjacency (object vertex ids, compressed rows over a local numbering)
+            const clusters = drawn.filter((c) => context[c]);
+            const local = new Int32Array(this.vertexCount).fill(-1);
+            const ids = [];
+            const triangles = [];
+            for (const c of clusters) {
+                const mesh = this.meshes[c];
+                const [a, b] = mesh.userData.range;
+                const index = mesh.geometry.index.array;
+                const vertexOf = mesh.geometry.userData.vertexOf;
+                for (let i = a; i < b; ++i) {
+                    const v = vertexOf[index[i]];
+                    if (local[v] < 0) {
+                        local[v] = ids.length;
+                        ids.push(v);
+                    }
+                    triangles.push(local[v]);
+                }
+            }
+            const start = new Uint32Array(ids.length + 1);
+            for (const v of triangles) start[v + 1] += 2;
+            for (let v = 0; v < ids.length; ++v) start[v + 1] += start[v];
+            const fill = start.slice(0, ids.length);
+            const adjacent = new Uint32Array(start[ids.length]);
+            for (let t = 0; t < triangles.length; t += 3) {
+                for (let k = 0; k < 3; ++k) {
+                    const v = triangles[t + k];
+                    adjacent[fill[v]++] = triangles[t + ((k + 1) % 3)];
+                    adjacent[fill[v]++] = triangles[t + ((k + 2) % 3)];
+                }
+            }
+            // breadth-first from the seeds, kReach edges deep
+            depth.fill(-1);
+            let frontier = [];
+            for (const v of seeds) {
+                if (local[v] >= 0 && depth[v] < 0) {
+                    depth[v] = 0;
+                    frontier.push(local[v]);
+                }
+            }
+            let grown = false;
+            for (let d = 0; frontier.length > 0; ++d) {
+                const next = [];
+                for (const u of frontier) {
+                    for (const n of this.clustersAt.get(ids[u]) ?? []) if (add(n)) grown = true;
+                    if (d === kReach) continue;
+                    for (let k = start[u]; k < start[u + 1]; ++k) {
+                        const w = adjacent[k];
+                        if (depth[ids[w]] >= 0) continue;
+                        depth[ids[w]] = d + 1;
+                        next.push(w);
+                    }
+                }
+                frontier = next;
+            }
+            if (grown) continue; // the search left the context: again with the clusters it reached
+            const write = new Uint8Array(this.vertexCount);
+            for (const v of ids) if (depth[v] >= 0 && depth[v] <= kWrite) write[v] = 1;
+            this.computeNormals(clusters, null, write);
+            ++this.plugin.stats.normalsIncremental;
             return;
         }
-        const context = Uint8Array.from(write);
-        for (const c of rewritten) touch(c, context);
-        this.computeNormals(
-            drawn.filter((c) => context[c]),
-            write,
-        );
-        ++this.plugin.stats.normalsIncremental;
     }
 
     /// Shading normals over the triangles of `clusters`, welded by position, written to the points
-    /// of those clusters c with write[c] (write null: all of them).
-    computeNormals(clusters, write) {
+    /// of those clusters c with write[c] (write null: all of them) whose object vertex v has
+    /// writeVertex[v] (writeVertex null: all of them).
+    computeNormals(clusters, write, writeVertex = null) {
         const drawn = clusters;
         let count = 0;
         for (const c of drawn) {
@@ -680,6 +751,7 @@ export class StrataObjectController {
             const out = normal.array;
             for (let i = a; i < b; ++i) {
                 const p = index[i];
+                if (writeVertex !== null && !writeVertex[vertexOf[p]]) continue;
                 const v = local[vertexOf[p]];
                 const x = normalsMm[3 * v];
                 const y = normalsMm[3 * v + 1];
