@@ -5,6 +5,7 @@
 #include <chrono>
 #include <mutex>
 #include <numeric>
+#include <optional>
 #include <utility>
 
 #include "contours/simplify_contours.h"
@@ -77,13 +78,16 @@ TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const
 }
 
 void verify_surface(const SliceStack& stack, ObjectSurface& surface) {
+    verify_surface(reference_topology(stack, surface.label), surface);
+}
+
+void verify_surface(const ReferenceTopology& reference, ObjectSurface& surface) {
     ObjectSurface::Verification& v = surface.verification;
     v = {};
     v.done = true;
     const MeshReport report = check_mesh(surface.mesh);
     v.closed_manifold = is_closed_manifold(report);
     v.outward = report.signed_volume > 0.0;
-    const ReferenceTopology reference = reference_topology(stack, surface.label);
     v.reference = describe(reference);
     std::vector<int> expected;
     for (const ReferenceSurface& s : reference.surfaces) {
@@ -121,9 +125,17 @@ std::string quantize_and_verify(const SliceStack& stack,
                                 const QuantizeOptions& options,
                                 bool verify,
                                 ObjectSurface& surface) {
+    // note: the reference depends on the label alone: read once however many attempts
+    std::optional<ReferenceTopology> reference;
+    auto verify_once = [&](const SliceStack& in, ObjectSurface& s) {
+        if (!reference) {
+            reference = reference_topology(in, s.label);
+        }
+        verify_surface(*reference, s);
+    };
     if (!options.enabled || surface.mesh.positions.empty()) {
         if (verify) {
-            verify_surface(stack, surface);
+            verify_once(stack, surface);
         }
         return {};
     }
@@ -149,7 +161,7 @@ std::string quantize_and_verify(const SliceStack& stack,
                   " intersects itself";
             continue;
         }
-        verify_surface(stack, surface);
+        verify_once(stack, surface);
         if (surface.verification.ok()) {
             return {};
         }
@@ -160,7 +172,7 @@ std::string quantize_and_verify(const SliceStack& stack,
             // finer cannot help then.
             ObjectSurface unsnapped = surface;
             unsnapped.mesh = original;
-            verify_surface(stack, unsnapped);
+            verify_once(stack, unsnapped);
             original_checked = true;
             if (!unsnapped.verification.ok()) {
                 surface = std::move(unsnapped);
@@ -174,7 +186,7 @@ std::string quantize_and_verify(const SliceStack& stack,
     surface.grid_step = 0.0;
     surface.grid_shift_px = 0.0;
     if (verify) {
-        verify_surface(stack, surface);
+        verify_once(stack, surface);
     }
     return "kept unsnapped (no progressive export): " + why;
 }

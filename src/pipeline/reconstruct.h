@@ -13,6 +13,7 @@
 #include "medial/medial_axis.h"
 #include "quantize/snap_to_grid.h"
 #include "simplify/multires_dag.h"
+#include "triangulate/reference_topology.h"
 #include "triangulate/surface.h"
 
 namespace strata {
@@ -63,6 +64,9 @@ TriMesh surface_to_world(const SliceStack& stack, double slice_spacing_px, const
 
 /// Fills `surface.verification` (see ObjectSurface::Verification) against `stack`'s label.
 void verify_surface(const SliceStack& stack, ObjectSurface& surface);
+
+/// The same against the label's reference topology, already computed (reference_topology).
+void verify_surface(const ReferenceTopology& reference, ObjectSurface& surface);
 
 /// Everything the pipeline produced, stage by stage.
 struct Reconstruction {

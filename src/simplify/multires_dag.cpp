@@ -68,6 +68,20 @@ struct Box {
     }
 };
 
+/// Distance from p to box b (a lower bound of the distance to anything inside it).
+double box_distance(const Vec3& p, const Box& b) {
+    double sum = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        const double d = std::max({b.lo[a] - p[a], 0.0, p[a] - b.hi[a]});
+        sum += d * d;
+    }
+    return std::sqrt(sum);
+}
+
+/// Slack (px) of box_distance as a lower bound of point_triangle_distance_px: far above the
+/// rounding of either at slice-space magnitudes (coordinates below 1e5 px).
+constexpr double kBoxSlackPx = 1e-9;
+
 Vec3 centroid(const std::vector<Vec3>& positions, const Tri& t) {
     return (1.0 / 3.0) * (positions[t[0]] + positions[t[1]] + positions[t[2]]);
 }
@@ -247,10 +261,12 @@ private:
         };
         detail::TriangleGrid grid(grid_cell_);
         Box all;
+        std::vector<Box> boxes(triangles.size());
         for (std::uint32_t t = 0; t < triangles.size(); ++t) {
             grid.insert(t, corners(t));
             for (const std::uint32_t v : triangles[t]) {
                 all.add(mesh_.positions[v]);
+                boxes[t].add(mesh_.positions[v]);
             }
         }
         const double reach = norm(all.hi - all.lo);
@@ -276,6 +292,16 @@ private:
             double nearest_a = best, nearest_b = best;
             std::uint32_t best_triangle = 0;
             auto offer = [&](std::uint32_t t) {
+                // note: a triangle whose box is no nearer to either end than what is known cannot
+                // change anything (the box distance is below the triangle's, and kBoxSlackPx
+                // covers the rounding of both)
+                const Box& b = boxes[t];
+                const double la = box_distance(piece.a, b) - kBoxSlackPx;
+                const double lb = box_distance(piece.b, b) - kBoxSlackPx;
+                if (la >= nearest_a && lb >= nearest_b &&
+                    piece.deviation_px + std::max(la, lb) >= best) {
+                    return;
+                }
                 const std::array<Vec3, 3> c = corners(t);
                 const double da = point_triangle_distance_px(piece.a, c);
                 const double db = point_triangle_distance_px(piece.b, c);

@@ -649,11 +649,39 @@ ReferenceTopology reference_topology(const std::vector<std::uint8_t>& mask,
 
 ReferenceTopology reference_topology(const SliceStack& stack, std::uint16_t label) {
     check_stack(stack, "reference_topology");
-    const int width = int(stack.width);
-    const int height = int(stack.height);
-    return label_reference_volume(width, height, int(stack.depth), [&](int i, int j, int k) {
-        return stack.labels[(std::size_t(k) * height + j) * width + i] == label;
-    });
+    const std::size_t width = stack.width;
+    const std::size_t height = stack.height;
+    // note: R is the same up to a shift on the label's bounding box (outside it every layer is
+    // background, which joins the padding either way), and the raster order of its voxels, which
+    // numbers the solids, is kept: so only the box is labelled, not every slice of the stack.
+    std::size_t i0 = width, i1 = 0, j0 = height, j1 = 0, k0 = stack.depth, k1 = 0;
+    for (std::size_t k = 0; k < stack.depth; ++k) {
+        for (std::size_t j = 0; j < height; ++j) {
+            const std::uint16_t* row = stack.labels.data() + (k * height + j) * width;
+            const std::uint16_t* first = std::find(row, row + width, label);
+            if (first == row + width) {
+                continue;
+            }
+            std::size_t last = width - 1;
+            while (row[last] != label) {
+                --last;
+            }
+            i0 = std::min(i0, std::size_t(first - row));
+            i1 = std::max(i1, last + 1);
+            j0 = std::min(j0, j);
+            j1 = std::max(j1, j + 1);
+            k0 = std::min(k0, k);
+            k1 = k + 1;
+        }
+    }
+    if (k1 <= k0) {
+        return {};
+    }
+    return label_reference_volume(
+        int(i1 - i0), int(j1 - j0), int(k1 - k0), [&](int i, int j, int k) {
+            return stack.labels[((k0 + std::size_t(k)) * height + j0 + std::size_t(j)) * width +
+                                i0 + std::size_t(i)] == label;
+        });
 }
 
 namespace detail {

@@ -437,6 +437,53 @@ TEST(ReferenceTopologyBruteForce, AgreesOnRandomSmallStacks) {
     }
 }
 
+// The stack overload labels the label's bounding box only: it must agree with the whole mask,
+// wherever the label lies in the stack (at its borders too) and whatever other labels surround it.
+TEST(ReferenceTopology, StackOverloadAgreesWithTheWholeMaskAnywhereInTheStack) {
+    const int iterations = property_iterations(300);
+    std::mt19937 seeds(7);
+    for (int n = 0; n < iterations; ++n) {
+        const std::uint32_t seed = seeds();
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        std::mt19937 rng(seed);
+        Mask mask = random_stack(rng);
+        auto uniform_int = [&](int lo, int hi) {
+            return std::uniform_int_distribution<int>(lo, hi)(rng);
+        };
+        SliceStack stack;
+        stack.width = std::uint32_t(mask.width + uniform_int(0, 4));
+        stack.height = std::uint32_t(mask.height + uniform_int(0, 4));
+        stack.depth = std::uint32_t(mask.depth + uniform_int(0, 3));
+        const int di = uniform_int(0, int(stack.width) - mask.width);
+        const int dj = uniform_int(0, int(stack.height) - mask.height);
+        const int dk = uniform_int(0, int(stack.depth) - mask.depth);
+        stack.labels.resize(std::size_t(stack.width) * stack.height * stack.depth);
+        std::vector<std::uint8_t> whole(stack.labels.size(), 0);
+        for (std::size_t v = 0; v < stack.labels.size(); ++v) {
+            stack.labels[v] = std::uint16_t(uniform_int(0, 3) == 0 ? 2 : 0);  // other labels
+        }
+        for (int k = 0; k < mask.depth; ++k) {
+            for (int j = 0; j < mask.height; ++j) {
+                for (int i = 0; i < mask.width; ++i) {
+                    const std::size_t v =
+                        (std::size_t(k + dk) * stack.height + std::size_t(j + dj)) * stack.width +
+                        std::size_t(i + di);
+                    if (mask.at(i, j, k) != 0) {
+                        stack.labels[v] = 5;
+                        whole[v] = 1;
+                    } else if (stack.labels[v] == 5) {
+                        stack.labels[v] = 0;
+                    }
+                }
+            }
+        }
+        ASSERT_EQ(reference_topology(stack, 5),
+                  reference_topology(whole, int(stack.width), int(stack.height), int(stack.depth)))
+            << mask.width << "x" << mask.height << "x" << mask.depth << " at " << di << "," << dj
+            << "," << dk << " in " << stack.width << "x" << stack.height << "x" << stack.depth;
+    }
+}
+
 /// The T35 recipe with this file's generator: a ball, then salt-and-pepper noise.
 std::vector<std::uint8_t> speckled_sphere(int size, int depth, double flip, std::uint32_t seed) {
     std::vector<std::uint8_t> mask(std::size_t(size) * size * depth);
