@@ -13,6 +13,7 @@
 # bound, mean / max error in mm to the true surface, and the strata / Slicer ratios.
 #   bash scripts/bench-e2e.sh [--quick] [--strata PATH] [--build-dir DIR] [--runs N]
 #                             [--threads N] [--seed N] [--sinc-iterations N] [--keep DIR]
+#                             [--cases LIST]
 #     --quick              256x256x128 volume (same geometry, half the size), one run
 #     --strata PATH        the strata binary to measure (default: build strata_cli, Release, in
 #                          --build-dir)
@@ -25,6 +26,14 @@
 #                          Slicer's vtkBinaryLabelmapToClosedSurfaceConversionRule sets)
 #     --keep DIR           keep the mask, outputs, meshes and results in DIR (default: a temp
 #                          folder, removed)
+#     --cases LIST         instead of the above, the speed table (issue 19): comma-separated
+#                          cases among e2e (this volume), freesurfer (the FreeSurfer aparc of
+#                          ../shared/data, its PNG stack written as NIfTI), totalseg (the
+#                          TotalSegmentator example), or all; per case, alternating, RUNS times
+#                          (default 1 here): strata build --threads 1, --threads 2 and the
+#                          Slicer pipeline (--threads N), each a whole process under
+#                          /usr/bin/time -v; one table of wall, CPU, peak RSS, strata's stage
+#                          times and the ratios to Slicer's whole process
 # Needs Debian's python3-numpy, python3-scipy, python3-vtk9 and time (installed here when
 # missing and running as root); PYTHON overrides /usr/bin/python3.
 set -euo pipefail
@@ -39,12 +48,15 @@ seed=7
 iterations=20
 strata=""
 keep=""
+cases=""
+runs_given=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
         --quick) dims=256,256,128; runs=1 ;;
         --strata) strata="$2"; shift ;;
         --build-dir) build="$2"; shift ;;
-        --runs) runs="$2"; shift ;;
+        --runs) runs="$2"; runs_given=1; shift ;;
+        --cases) cases="$2"; shift ;;
         --threads) threads="$2"; shift ;;
         --seed) seed="$2"; shift ;;
         --sinc-iterations) iterations="$2"; shift ;;
@@ -91,6 +103,52 @@ else
 fi
 rm -rf "$work/runs" "$work/strata" "$work/slicer" "$work"/error_*.json "$work"/extract_*
 mkdir -p "$work/runs"
+
+if [[ -n "$cases" ]]; then
+    [[ $cases == all ]] && cases=e2e,freesurfer,totalseg
+    [[ -n $runs_given ]] || runs=1
+    data="$root/../shared/data"
+    for case in ${cases//,/ }; do
+        dir="$work/cases/$case"
+        rm -rf "$dir"
+        mkdir -p "$dir"
+        case "$case" in
+            e2e)
+                "$python" "$peer" phantom "$dir" --dims "$dims" --seed "$seed"
+                input="$dir/mask.nii.gz"
+                what="bench-e2e phantom, $dims voxels, 2 labels" ;;
+            freesurfer)
+                input="$dir/aparc.nii.gz"
+                "$python" "$peer" png-nifti "$data/freesurfer_aparc_aseg/slices" "$input"
+                what="FreeSurfer aparc.a2009s+aseg, 128x172x133, 188 labels" ;;
+            totalseg)
+                input="$data/totalsegmentator_abdomen/example_seg.nii.gz"
+                what="TotalSegmentator example, 122x101x30, 41 labels" ;;
+            *) echo "bench-e2e: unknown case $case (e2e, freesurfer, totalseg, all)" >&2; exit 2 ;;
+        esac
+        "$python" -c 'import json, sys
+json.dump({"name": sys.argv[1], "input": sys.argv[2], "what": sys.argv[3],
+           "runs": int(sys.argv[4]), "threads": [1, 2], "slicer_threads": int(sys.argv[5])},
+          open(sys.argv[6], "w"))' "$case" "$input" "$what" "$runs" "$threads" "$dir/case.json"
+        for ((r = 1; r <= runs; r++)); do
+            for t in 1 2; do
+                echo "bench-e2e: $case run $r of $runs: strata build --threads $t" >&2
+                rm -rf "$dir/out"
+                /usr/bin/time -v -o "$dir/strata_t${t}_$r.time" \
+                    "$strata" build "$input" -o "$dir/out" --threads "$t" --quiet
+                cp "$dir/out/summary.json" "$dir/strata_t${t}_$r.summary.json"
+            done
+            echo "bench-e2e: $case run $r of $runs: Slicer pipeline" >&2
+            /usr/bin/time -v -o "$dir/slicer_$r.time" \
+                "$python" "$peer" slicer "$input" "$dir/slicer_out" --threads "$threads" \
+                --iterations "$iterations"
+            mv "$dir/slicer_out/slicer.json" "$dir/slicer_$r.json"
+            rm -rf "$dir/out" "$dir/slicer_out"
+        done
+    done
+    "$python" "$peer" cases-table "$work/cases"
+    exit 0
+fi
 
 "$python" "$peer" phantom "$work" --dims "$dims" --seed "$seed"
 mask="$work/mask.nii.gz"

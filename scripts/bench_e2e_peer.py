@@ -39,11 +39,22 @@ affine of AFFINE_JSON: a strata summary.json or slicer.json; index * spacing):
     each of the 100 worst; the two-sided max is the larger of both maxima.
 `table WORK` prints the comparison from the files bench-e2e.sh left in WORK.
 
+`png-nifti SLICES_DIR OUT.nii.gz` writes a strata PNG stack (8-bit greyscale slices and
+meta.json, as ../shared/data has them) as a NIfTI-1 label map with meta.json's affine, so that
+strata and the Slicer pipeline read the same file (PNG decoded with zlib: no imaging library).
+
+`cases-table WORK` prints the one-run table of `bench-e2e.sh --cases`: per case, strata build
+at 1 and 2 threads and the Slicer pipeline, each as a whole process (/usr/bin/time -v: wall, CPU
+= user + system, peak RSS), Slicer's pipeline in process, strata's stage times (summary.json),
+and the ratios the issue asks for.
+
 Needs Debian's python3-numpy, python3-scipy and python3-vtk9.
 Usage: bench_e2e_peer.py phantom OUT_DIR [--dims NX,NY,NZ] [--spacing SX,SY,SZ] [--seed N]
        bench_e2e_peer.py slicer NIFTI OUT_DIR [--threads N] [--iterations N]
        bench_e2e_peer.py error TRUTH_JSON AFFINE_JSON MESH... --out JSON
        bench_e2e_peer.py table WORK
+       bench_e2e_peer.py png-nifti SLICES_DIR OUT.nii.gz
+       bench_e2e_peer.py cases-table WORK
 """
 import argparse
 import gzip
@@ -55,6 +66,7 @@ import struct
 import sys
 import textwrap
 import time
+import zlib
 
 import numpy as np
 
@@ -925,6 +937,139 @@ def run_table(args):
     for note in notes:
         print(textwrap.fill(note, width=100, subsequent_indent="  "))
 
+
+# ---------------------------------------------------------------------------------------------
+# benchmark cases (bench-e2e.sh --cases)
+
+
+def read_png_grey8(path):
+    """An 8-bit greyscale, non-interlaced PNG as a [row, column] uint8 array."""
+    raw = pathlib.Path(path).read_bytes()
+    if raw[:8] != b"\x89PNG\r\n\x1a\n":
+        sys.exit(f"{path}: not a PNG file")
+    pos, idat, header = 8, [], None
+    while pos < len(raw):
+        length, kind = struct.unpack_from(">I4s", raw, pos)
+        data = raw[pos + 8:pos + 8 + length]
+        if kind == b"IHDR":
+            header = struct.unpack(">IIBBBBB", data)
+        elif kind == b"IDAT":
+            idat.append(data)
+        pos += 12 + length
+    width, height, depth, colour, _, _, interlace = header
+    if depth != 8 or colour != 0 or interlace != 0:
+        sys.exit(f"{path}: expected 8-bit greyscale without interlacing")
+    data = np.frombuffer(zlib.decompress(b"".join(idat)), dtype=np.uint8)
+    rows = data.reshape(height, width + 1)
+    out = np.zeros((height, width), dtype=np.int32)
+    for y in range(height):
+        kind, line = rows[y, 0], rows[y, 1:].astype(np.int32)
+        up = out[y - 1] if y > 0 else np.zeros(width, dtype=np.int32)
+        if kind == 0:
+            out[y] = line
+        elif kind == 2:
+            out[y] = (line + up) & 255
+        else:  # sub, average, Paeth: they depend on the reconstructed left neighbour
+            row = np.zeros(width, dtype=np.int32)
+            for x in range(width):
+                left = row[x - 1] if x > 0 else 0
+                corner = up[x - 1] if x > 0 else 0
+                if kind == 1:
+                    pred = left
+                elif kind == 3:
+                    pred = (left + up[x]) // 2
+                else:
+                    p = left + up[x] - corner
+                    pa, pb, pc = abs(p - left), abs(p - up[x]), abs(p - corner)
+                    pred = left if pa <= pb and pa <= pc else (up[x] if pb <= pc else corner)
+                row[x] = (line[x] + pred) & 255
+            out[y] = row
+    return out.astype(np.uint8)
+
+
+def run_png_nifti(args):
+    folder = pathlib.Path(args.slices)
+    meta = json.loads((folder.parent / "meta.json").read_text()
+                      if not (folder / "meta.json").exists() else (folder / "meta.json").read_text())
+    files = sorted(folder.glob("slice_*.png"))
+    # PNG column = i, row = j: a [j, i] image per slice, stacked along k
+    labels = np.stack([read_png_grey8(f) for f in files])
+    nx, ny, nz = meta["dims"]
+    if labels.shape != (nz, ny, nx):
+        sys.exit(f"{folder}: slices make {labels.shape[::-1]}, meta.json says {meta['dims']}")
+    affine = np.asarray(meta["index_to_world_mm"], dtype=np.float64)
+    if meta.get("frame", "RAS") != "RAS":
+        affine = np.diag([-1.0, -1.0, 1.0, 1.0]) @ affine  # LPS -> RAS
+    write_nifti(args.out, labels, affine, meta["spacing_mm"])
+
+
+def gnu_time_cpu(path):
+    """(wall s, CPU s = user + system, max RSS MB) of a `/usr/bin/time -v` log."""
+    text = pathlib.Path(path).read_text()
+    wall, rss = gnu_time(path)
+    user = float(re.search(r"User time \(seconds\): ([\d.]+)", text).group(1))
+    system = float(re.search(r"System time \(seconds\): ([\d.]+)", text).group(1))
+    return wall, user + system, rss
+
+
+def run_cases_table(args):
+    work = pathlib.Path(args.work)
+    med = lambda v: float(np.median(v)) if v else float("nan")  # noqa: E731
+    cases = [d for d in sorted(work.iterdir()) if d.is_dir() and (d / "case.json").exists()]
+    header = (f"{'case':<12} {'tool':<24} {'wall s':>8} {'CPU s':>8} {'peak MB':>8} "
+              f"{'/Slicer wall':>12} {'/Slicer CPU':>11} {'/Slicer RSS':>11}  stages (s)")
+    print()
+    print(header)
+    print("-" * len(header))
+    notes = []
+    for d in cases:
+        case = json.loads((d / "case.json").read_text())
+        slicer = [gnu_time_cpu(p) for p in sorted(d.glob("slicer_*.time"))]
+        slicer_json = [json.loads(p.read_text()) for p in sorted(d.glob("slicer_*.json"))]
+        v_wall = med([w for w, _, _ in slicer])
+        v_rss = med([r for _, _, r in slicer])
+        v_cpu = med([c for _, c, _ in slicer])
+        rows = []
+        walls = {}
+        for t in case["threads"]:
+            runs = [gnu_time_cpu(p) for p in sorted(d.glob(f"strata_t{t}_*.time"))]
+            if not runs:
+                continue
+            stages = [json.loads(p.read_text()).get("timings_s", {})
+                      for p in sorted(d.glob(f"strata_t{t}_*.summary.json"))]
+            keys = list(stages[0]) if stages else []
+            stage_text = " ".join(f"{k} {med([st.get(k, 0.0) for st in stages]):.2f}"
+                                  for k in keys)
+            wall, cpu, rss = (med([r[i] for r in runs]) for i in range(3))
+            walls[t] = wall
+            rows.append((f"strata --threads {t}", wall, cpu, rss, stage_text))
+        if slicer:
+            rows.append((f"Slicer pipeline ({case['slicer_threads']} thr)", v_wall,
+                         med([c for _, c, _ in slicer]), v_rss,
+                         f"in process {med([j['pipeline_s'] for j in slicer_json]):.2f}"))
+        for tool, wall, cpu, rss, stages in rows:
+            ratio_wall = f"{wall / v_wall:>12.2f}" if slicer else f"{'-':>12}"
+            ratio_cpu = f"{cpu / v_cpu:>11.2f}" if slicer else f"{'-':>11}"
+            ratio_rss = f"{rss / v_rss:>11.2f}" if slicer else f"{'-':>11}"
+            print(f"{case['name']:<12} {tool:<24} {wall:>8.2f} {cpu:>8.2f} {rss:>8.0f} "
+                  f"{ratio_wall} {ratio_cpu} {ratio_rss}  {stages}")
+        if 1 in walls and 2 in walls:
+            notes.append(f"{case['name']}: strata 1 thread / 2 threads = "
+                         f"{walls[1] / walls[2]:.2f}x")
+        notes.append(f"{case['name']}: {case['input']} ({case['what']}); "
+                     f"median of {case['runs']} run(s) each, runs alternated")
+    print("-" * len(header))
+    notes.append("wall, CPU, peak MB: the whole process under /usr/bin/time -v (strata build: "
+                 "reading, every stage, every output; Slicer pipeline: python start, NIfTI "
+                 "parsing, VTK flying edges + windowed sinc + normals per label, PLY writing). "
+                 "/Slicer: against the Slicer pipeline's whole process (CPU: on a loaded machine the "
+                 "steadier measure). stages: strata's "
+                 "summary.json timings_s (wall per stage); Slicer's in-process time excludes "
+                 "python start, parsing and writing.")
+    for note in notes:
+        print(textwrap.fill(note, width=100, subsequent_indent="  "))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -951,9 +1096,15 @@ def main():
     t.add_argument("work")
     t.add_argument("--threads", type=int, default=2)
     t.add_argument("--levels", nargs="*", default=["1", "2"])
+    n = sub.add_parser("png-nifti", help="a strata PNG stack as a NIfTI-1 label map")
+    n.add_argument("slices")
+    n.add_argument("out")
+    c = sub.add_parser("cases-table", help="print the table of bench-e2e.sh --cases")
+    c.add_argument("work")
     args = parser.parse_args()
     {"phantom": run_phantom, "slicer": run_slicer, "error": run_error,
-     "table": run_table}[args.command](args)
+     "table": run_table, "png-nifti": run_png_nifti,
+     "cases-table": run_cases_table}[args.command](args)
 
 
 if __name__ == "__main__":
