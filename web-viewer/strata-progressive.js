@@ -477,7 +477,8 @@ export class StrataObjectController {
             this.adopt(c, this.clusterMesh(chunk, start[k], start[k + 1], c));
         });
         // the chunk's own normals until the welded ones over the drawn cut are computed
-        if (this.plugin.options.normals) this.computeNormals(group.consumed, null);
+        // (angle-weighted only: a cheap stand-in, replaced when the clusters are drawn)
+        if (this.plugin.options.normals) this.computeNormals(group.consumed, null, null, 0);
         this.groupState[g] = 2;
     }
 
@@ -709,8 +710,8 @@ export class StrataObjectController {
 
     /// Shading normals over the triangles of `clusters`, welded by position, written to the points
     /// of those clusters c with write[c] (write null: all of them) whose object vertex v has
-    /// writeVertex[v] (writeVertex null: all of them).
-    computeNormals(clusters, write, writeVertex = null) {
+    /// writeVertex[v] (writeVertex null: all of them); rings as shadingNormals.
+    computeNormals(clusters, write, writeVertex = null, rings = 3) {
         const drawn = clusters;
         let count = 0;
         for (const c of drawn) {
@@ -737,7 +738,7 @@ export class StrataObjectController {
                 triangles[n++] = local[v];
             }
         }
-        const normalsMm = shadingNormals(Float64Array.from(positions), triangles, positions.length / 3);
+        const normalsMm = shadingNormals(Float64Array.from(positions), triangles, positions.length / 3, rings);
         // mm -> local: n_local ~ M^T n_mm (three.js then applies the normal matrix, inverse transpose of M)
         const e = this.toMm.elements;
         const touched = new Set();
@@ -1065,6 +1066,34 @@ export class StrataProgressivePlugin {
             return this.last;
         }
         this.attachArrived();
+        // nothing to select again while the view, the settings, the shown objects and the loaded
+        // chunks are those of the last update and nothing blends (a settled view costs ~nothing)
+        const key = options.controllers
+            ? null
+            : [
+                  camera.matrixWorld.elements.join(),
+                  camera.projectionMatrix.elements.join(),
+                  this.sceneRoot?.matrixWorld.elements.join(),
+                  viewportHeightPx,
+                  tauPx,
+                  budget,
+                  JSON.stringify(options.roi ?? null),
+                  options.morph,
+                  options.cull,
+                  this.controllers.map((c) => (isShown(c.object) ? 1 : 0)).join(''),
+              ].join('|');
+        if (
+            key !== null &&
+            key === this.lastKey &&
+            !this.changed &&
+            this.last !== null &&
+            !this.last.blending &&
+            !this.controllers.some((c) => c.normalsDirtySince != null)
+        ) {
+            this.last = { ...this.last, changed: false };
+            return this.last;
+        }
+        this.lastKey = key;
         const now = performance.now();
         const controllers = (options.controllers ?? this.controllers).filter(
             (c) => c.object.visible && isShown(c.object),

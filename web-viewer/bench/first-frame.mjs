@@ -14,7 +14,7 @@
 // The single-rate file is loaded as a single-rate viewer loads it: one request for the whole file,
 // sent from the page's first script as the progressive model's first range is (index.html ?whole).
 // Each variant runs in a fresh browser profile, on the same viewport and camera (the viewer's
-// fitted anterior view), tau 1 px (--tau), the default triangle budget, in two cache states
+// fitted anterior view), the viewer's default tau (--tau PX), the default triangle budget, in two cache states
 // (--cache, default both):
 //   cold          nothing cached: the page, three.js (served as npm ships it: unminified and,
 //                 like the model, uncompressed), the Draco decoder and the model all come over
@@ -57,7 +57,7 @@ function parseArgs(args) {
         json: null,
         zoom: true,
         caches: ['cold', 'warm'],
-        tau: 1,
+        tau: null, // the viewer's default
     };
     for (let i = 0; i < args.length; ++i) {
         const arg = args[i];
@@ -296,7 +296,7 @@ async function main() {
                     for (const variant of variants) {
                         const url =
                             `${base}?model=model/${encodeURIComponent(variant.file)}&aa=0` +
-                            (variant.full ? '' : `&tau=${options.tau}`) +
+                            (variant.full || options.tau === null ? '' : `&tau=${options.tau}`) +
                             (variant.query ?? '');
                         console.error(`first-frame: ${variant.label}, ${cache}, run ${run + 1} ...`);
                         const r = await measure(
@@ -323,7 +323,7 @@ async function main() {
             : 'loopback, unthrottled';
         console.log(
             `model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
-                `tau ${options.tau} px; Chromium software WebGL (SwiftShader)`,
+                `tau ${options.tau ?? "the viewer's default"} px; Chromium software WebGL (SwiftShader)`,
         );
         console.log(
             'variant                    | cache | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms',
@@ -374,7 +374,7 @@ async function main() {
                     console.log(
                         `run ${run + 1}, ${cache}, ${name}: single-rate Draco shown at ${fmtMs(t)} ms (${fmtMB(single.fileBytes)} MB); ` +
                             `progressive first frame ${ratio(progressive, progressive.firstFrameMs)}x (target <= 0.25), ` +
-                            `settled at tau ${options.tau} ${ratio(progressive, progressive.refinedMs)}x (<= 1.0) with ` +
+                            `settled at tau ${options.tau ?? 'default'} ${ratio(progressive, progressive.refinedMs)}x (<= 1.0) with ` +
                             `${((100 * progressive.refinedBytes) / single.fileBytes).toFixed(0)} % of its bytes (< 60 %), ` +
                             `all refined ${ratio(full, full.refinedMs)}x (<= 1.6) with ${((100 * full.refinedBytes) / single.fileBytes).toFixed(0)} %, ` +
                             `${full.triangles} triangles (single-rate ${dracoTriangles})`,
