@@ -26,6 +26,13 @@ struct TriangulateOptions {
     /// vertex.
     double medial_tolerance_px = 0.25;
     double medial_max_step_px = 6.0;
+    /// End caps are domed, reaching at most this fraction of the slice spacing beyond their
+    /// slice (the object goes on past its last slice by less than d); 0: planar caps in the
+    /// end slices, as before.
+    double cap_reach = 0.75;
+    /// Steiner heights from a monotone cubic (Catmull-Rom) interpolation in z of the signed
+    /// distance fields of slices k-1 .. k+2 instead of the linear D_k / (D_k - D_k+1).
+    bool cubic_height = true;
     /// Rounds of local refinement (Steiner points) that remove flat chords and split
     /// correspondence jumps before a slab is declared failed.
     unsigned refine_rounds = 12;
@@ -46,7 +53,7 @@ struct ObjectSurface {
     std::uint16_t label = 0;
     TriMesh mesh;
     std::uint32_t slabs = 0;           ///< slice pairs joined by the surface
-    std::uint32_t caps = 0;            ///< planar end caps (a single-slice slab counts two)
+    std::uint32_t caps = 0;            ///< end caps (a single-slice slab counts two)
     std::uint32_t steiner_points = 0;  ///< vertices between slices (medial axis + refinement)
     /// Slabs where the contours still overlap in another pattern than the pixels do after the
     /// unsimplified fallback (the surface follows the polygons there, so its topology can differ
@@ -114,13 +121,16 @@ bool unsimplify_near_neighbours(SliceContourSet& set,
 ///
 /// Between slices k and k+1 the surface is the graph, over the symmetric difference of the two
 /// slices' simplified regions (only regions linked across the slab), of the shape-based
-/// interpolation height t = D_k / (D_k - D_k+1): it runs from the contour of slice k (t = 0)
+/// interpolation height t (TriangulateOptions::cubic_height; linear: t = D_k / (D_k - D_k+1)):
+/// it runs from the contour of slice k (t = 0)
 /// through the medial axis (t = 1/2, the paper's correspondence curve, inserted as vertices) to
 /// the contour of slice k+1 (t = 1). The planar domain is an exact constrained Delaunay
 /// triangulation of both contour sets (CGAL, exact constructions), so the lifted surface is
 /// embedded; where contours cross, the crossing point gets a vertical edge; where they coincide,
-/// a vertical wall. Regions without a partner on the next (previous) slice are closed by a planar
-/// cap in their own plane; a region alone on its slice becomes a slab of thickness d/2.
+/// a vertical wall. Regions without a partner on the next (previous) slice are closed by a dome
+/// beyond their plane (TriangulateOptions::cap_reach; at the stack's ends, a region that does not
+/// close visibly is extended by d/2 instead); a region alone on its slice becomes a slab of
+/// thickness d/2.
 /// Contour edges are shared exactly between the slabs and caps on both sides of a slice.
 /// Output: labels in increasing order (`options.labels` when given), vertices without
 /// duplicates, triangles outward CCW.
