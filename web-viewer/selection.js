@@ -358,7 +358,11 @@ class MaxHeap {
 ///   tauPx (default 1), budget (triangles over all DAGs, base included; default Infinity),
 ///   roi: { center, radius, factor } or null, cull (default true: use view.frustum when given),
 ///   isLoaded(dagIndex, cluster) -> bool (default: everything loaded),
-///   morphK (default 2): geomorph weights w(g) = clamp((k - ratio) / (k - 1), 0, 1) (schema/README.md).
+///   morphK (default 2): geomorph weights w(g) = clamp((k - ratio) / (k - 1), 0, 1) (schema/README.md),
+///   prefetch (default false): also report, after the missing clusters of a candidate that cannot
+///     be refined, those of the groups below it that the predicate would refine once it is
+///     (priority > 1, in priority order), so that a viewer can fetch the levels of a view in one
+///     round instead of one level per round trip; they do not change the cut.
 /// Returns { cuts: per DAG { refined, drawn, ratio, weight }, wanted: [{ dag, cluster, priority }]
 /// (best first), triangles, budgetLimited, refinedCount }.
 export function selectCut(dags, view, options = {}) {
@@ -389,8 +393,28 @@ export function selectCut(dags, view, options = {}) {
         for (let g = 0; g < dag.ng; ++g) {
             if (waiting[g] === 0) heap.push({ key: priority[g], tie: di * 1e9 + (dag.ng - g), dag: di, g });
         }
-        return { refined: new Uint8Array(dag.ng), ratio, priority, waiting, weight: new Float64Array(dag.ng) };
+        return {
+            refined: new Uint8Array(dag.ng),
+            ratio,
+            priority,
+            waiting,
+            weight: new Float64Array(dag.ng),
+            speculative: null,
+        };
     });
+    const prefetch = options.prefetch === true && isLoaded !== null;
+    // a group reached by prefetching only (a parent not refined): its children are reached too
+    const speculate = (di, g) => {
+        const dag = dags[di];
+        const cut = cuts[di];
+        cut.speculative ??= new Uint8Array(dag.ng);
+        cut.speculative[g] = 1;
+        for (const child of dag.children[g]) {
+            if (--cut.waiting[child] === 0) {
+                heap.push({ key: cut.priority[child], tie: di * 1e9 + (dag.ng - child), dag: di, g: child });
+            }
+        }
+    };
     const wanted = [];
     let budgetLimited = false;
     let refinedCount = 0;
@@ -400,10 +424,12 @@ export function selectCut(dags, view, options = {}) {
         const dag = dags[di];
         const cut = cuts[di];
         const consumed = dag.groups[g].consumed;
+        const speculative = prefetch && dag.parents[g].some((p) => cut.speculative?.[p]);
         if (isLoaded !== null) {
             const missing = consumed.filter((c) => !isLoaded(di, c));
-            if (missing.length > 0) {
+            if (missing.length > 0 || speculative) {
                 for (const c of missing) wanted.push({ dag: di, cluster: c, priority: key });
+                if (prefetch && !budgetLimited) speculate(di, g);
                 continue;
             }
         }
@@ -430,6 +456,7 @@ export function selectCut(dags, view, options = {}) {
         }
         cut.drawn = drawnClusters(dag, cut.refined);
         delete cut.waiting;
+        delete cut.speculative;
     }
     return { cuts, wanted, triangles, budgetLimited, refinedCount };
 }

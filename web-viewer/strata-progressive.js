@@ -73,6 +73,7 @@ const kDefaults = {
     normals: true, // shading normals over the drawn cut (false: the base's normals, chunks flat)
     normalsMs: 8, // main-thread time per update for recomputing objects' normals (at least one object)
     normalsFullShare: 0.5, // recompute an object's normals over its whole cut when more of it changed
+    prefetch: true, // request the chunks of the levels below a missing one at once (selectCut prefetch)
     attachMs: 8, // main-thread time per update for attaching decoded chunks (at least one chunk)
     memoryBudget: 4e6, // triangles of loaded chunks kept; beyond it, chunks off the cut are unloaded
     // merge chunk ranges of one buffer closer than this into one request: 4 kB, less than an
@@ -1108,6 +1109,7 @@ export class StrataProgressivePlugin {
                 roi: options.roi ?? null,
                 cull: options.cull ?? this.options.cull,
                 morphK: this.options.morphK,
+                prefetch: this.options.prefetch,
                 isLoaded: (di, c) => controllers[di].isLoaded(c),
             },
         );

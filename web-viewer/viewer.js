@@ -175,11 +175,12 @@ async function openUrl(url) {
           ? Number(params.get('prefix'))
           : undefined;
     // plugin options from the URL (for tests and benchmarks): ?memory=TRIANGLES, ?gap=BYTES
-    // (maxRangeGap), ?normals-full=SHARE (normalsFullShare)
+    // (maxRangeGap), ?normals-full=SHARE (normalsFullShare), ?prefetch=0 (no prefetching)
     const pluginOptions = {};
     if (params.has('memory')) pluginOptions.memoryBudget = Number(params.get('memory'));
     if (params.has('gap')) pluginOptions.maxRangeGap = Number(params.get('gap'));
     if (params.has('normals-full')) pluginOptions.normalsFullShare = Number(params.get('normals-full'));
+    if (params.has('prefetch')) pluginOptions.prefetch = params.get('prefetch') !== '0';
     const result = await loadStrataModel(url, { createLoader, pluginOptions, prefixBytes });
     show(result, url.split('/').pop());
     await result.userData.strata?.ready;
