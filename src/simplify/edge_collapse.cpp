@@ -653,6 +653,15 @@ private:
         if (!pieces) {
             return reached;
         }
+        return pieces_cost(u, reached);
+    }
+
+    /// The rest of cost(u, v, true) after cost(u, v, false) returned `reached` (its scratch,
+    /// moved_corners_ and moved_index_, still holding u's star moved onto v).
+    std::optional<double> pieces_cost(std::uint32_t u, double reached) const {
+        const std::vector<std::array<Vec3, 3>>& moved_corners = moved_corners_;
+        const std::vector<std::uint32_t>& own = moved_index_;
+        const std::vector<std::uint32_t>& star = vertex_triangles_[u];
         // The contour pieces of u's star move to the nearest changed triangle (their own first).
         // note: only the largest distance counts, so a piece within `reached` of some triangle
         // is done.
@@ -727,7 +736,10 @@ private:
                 queue_.push({*known, c.u, c.v, c.stamp, Candidate::kSections});
                 return false;
             }
-            const std::optional<double> exact = cost(c.u, c.v, true);
+            // note: straight after cost(c.u, c.v, false) nothing has changed: only the pieces
+            // remain to be read
+            const std::optional<double> exact =
+                sections_known ? cost(c.u, c.v, true) : pieces_cost(c.u, *known);
             if (!exact) {
                 return false;
             }
