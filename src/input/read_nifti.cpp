@@ -521,11 +521,16 @@ Affine3 flip_ras_lps(Affine3 affine) {
 /// Checks vox_offset; returns it as a byte count.
 std::uint64_t check_vox_offset(const NiftiHeader& h, const std::string& where) {
     const double offset = h.vox_offset;
-    if (!std::isfinite(offset) || offset != std::floor(offset) ||
-        offset < static_cast<double>(h.size) || offset > 0x1p62) {
-        throw Error(ErrorCode::InvalidInput, where + ": vox_offset " + format_number(offset) +
-                                                 ", expected a whole number of bytes at least " +
-                                                 std::to_string(h.size) + " (the header size)");
+    // note: the 4 bytes after the header are the extension flag; data starting among them would
+    // be read shifted. Exactly the header size (no flag at all) is still read, as nifti1_io does.
+    const double size = static_cast<double>(h.size);
+    if (!std::isfinite(offset) || offset != std::floor(offset) || offset < size ||
+        (offset > size && offset < size + 4) || offset > 0x1p62) {
+        throw Error(ErrorCode::InvalidInput,
+                    where + ": vox_offset " + format_number(offset) +
+                        ", expected a whole number of bytes, " + std::to_string(h.size) +
+                        " (the header size) or at least " + std::to_string(h.size + 4) +
+                        " (the header and its extension flag)");
     }
     return static_cast<std::uint64_t>(offset);
 }
