@@ -1,13 +1,13 @@
 #include "pipeline/reconstruct_contours.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
 #include <vector>
 
 #include "core/error.h"
+#include "pipeline/contour_distance.h"
 
 namespace strata {
 
@@ -67,123 +67,24 @@ std::uint16_t object_label(const PlanarContours& contours, std::size_t index) {
     return unique ? std::uint16_t(number) : std::uint16_t(index + 1);
 }
 
-/// The segments of one plane's input polygons in frame px, bucketed in square cells for nearest
-/// queries (exact point-to-segment distances).
-class PolygonIndex {
-public:
-    PolygonIndex(const ContourPlane& plane, const ContourFrame& frame) {
-        double lo_x = std::numeric_limits<double>::infinity();
-        double lo_y = lo_x;
-        double hi_x = -lo_x;
-        double hi_y = -lo_x;
-        for (const PlaneContour& c : plane.contours) {
-            const std::size_t n = c.points.size();
-            for (std::size_t i = 0; i < n; ++i) {
-                const Vec2 a = to_px(c.points[i], frame);
-                const Vec2 b = to_px(c.points[(i + 1) % n], frame);
-                segments_.push_back({a, b});
-                lo_x = std::min({lo_x, a.x, b.x});
-                lo_y = std::min({lo_y, a.y, b.y});
-                hi_x = std::max({hi_x, a.x, b.x});
-                hi_y = std::max({hi_y, a.y, b.y});
-            }
-        }
-        if (segments_.empty()) {
-            return;
-        }
-        origin_ = {lo_x, lo_y};
-        const double extent = std::max({hi_x - lo_x, hi_y - lo_y, 1.0});
-        cell_ = std::max(1.0, extent / 64.0);
-        columns_ = std::int64_t((hi_x - lo_x) / cell_) + 1;
-        rows_ = std::int64_t((hi_y - lo_y) / cell_) + 1;
-        cells_.assign(std::size_t(columns_ * rows_), {});
-        for (std::uint32_t i = 0; i < segments_.size(); ++i) {
-            const auto [a, b] = segments_[i];
-            const std::int64_t x0 = column(std::min(a.x, b.x));
-            const std::int64_t x1 = column(std::max(a.x, b.x));
-            const std::int64_t y0 = row(std::min(a.y, b.y));
-            const std::int64_t y1 = row(std::max(a.y, b.y));
-            for (std::int64_t y = y0; y <= y1; ++y) {
-                for (std::int64_t x = x0; x <= x1; ++x) {
-                    cells_[std::size_t(y * columns_ + x)].push_back(i);
-                }
-            }
+/// One plane's input polygons in frame px (pixel i covers [i, i + 1], x = 0 at u0).
+PolygonEdges plane_edges(const ContourPlane& plane, const ContourFrame& frame) {
+    std::vector<std::vector<Vec2>> polygons;
+    for (const PlaneContour& c : plane.contours) {
+        std::vector<Vec2>& polygon = polygons.emplace_back();
+        for (const Vec2 uv : c.points) {
+            polygon.push_back(
+                {(uv.x - frame.u0) / frame.pitch_mm, (uv.y - frame.v0) / frame.pitch_mm});
         }
     }
-
-    bool empty() const { return segments_.empty(); }
-
-    /// Distance from `p` to the nearest polygon edge (infinite without edges).
-    double distance(Vec2 p) const {
-        double best = std::numeric_limits<double>::infinity();
-        if (segments_.empty()) {
-            return best;
-        }
-        const std::int64_t cx = column(p.x);
-        const std::int64_t cy = row(p.y);
-        // distance from p to the outside of the box of cells within `ring` of (cx, cy)
-        const double gx = p.x - origin_.x;
-        const double gy = p.y - origin_.y;
-        for (std::int64_t ring = 0;; ++ring) {
-            for (std::int64_t y = cy - ring; y <= cy + ring; ++y) {
-                for (std::int64_t x = cx - ring; x <= cx + ring; ++x) {
-                    const bool border =
-                        y == cy - ring || y == cy + ring || x == cx - ring || x == cx + ring;
-                    if (!border || x < 0 || y < 0 || x >= columns_ || y >= rows_) {
-                        continue;
-                    }
-                    for (const std::uint32_t i : cells_[std::size_t(y * columns_ + x)]) {
-                        best =
-                            std::min(best, segment_distance(p, segments_[i][0], segments_[i][1]));
-                    }
-                }
-            }
-            // every edge not yet seen lies outside the searched box (clamped to the grid)
-            const double reach =
-                std::min({gx - double(cx - ring) * cell_, double(cx + ring + 1) * cell_ - gx,
-                          gy - double(cy - ring) * cell_, double(cy + ring + 1) * cell_ - gy});
-            if (best <= reach || (cx - ring <= 0 && cy - ring <= 0 && cx + ring >= columns_ - 1 &&
-                                  cy + ring >= rows_ - 1)) {
-                return best;
-            }
-        }
-    }
-
-    static Vec2 to_px(Vec2 uv, const ContourFrame& frame) {
-        // slice space: pixel i covers [i, i + 1], and x = 0 is u0
-        return {(uv.x - frame.u0) / frame.pitch_mm, (uv.y - frame.v0) / frame.pitch_mm};
-    }
-
-private:
-    static double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
-        const Vec2 ab = b - a;
-        const double length2 = dot(ab, ab);
-        double t = length2 > 0.0 ? dot(p - a, ab) / length2 : 0.0;
-        t = std::clamp(t, 0.0, 1.0);
-        return norm(p - (a + t * ab));
-    }
-    std::int64_t column(double x) const {
-        return std::clamp<std::int64_t>(std::int64_t(std::floor((x - origin_.x) / cell_)), 0,
-                                        columns_ - 1);
-    }
-    std::int64_t row(double y) const {
-        return std::clamp<std::int64_t>(std::int64_t(std::floor((y - origin_.y) / cell_)), 0,
-                                        rows_ - 1);
-    }
-
-    std::vector<std::array<Vec2, 2>> segments_;
-    std::vector<std::vector<std::uint32_t>> cells_;
-    Vec2 origin_;
-    double cell_ = 1.0;
-    std::int64_t columns_ = 0;
-    std::int64_t rows_ = 0;
-};
+    return PolygonEdges(std::move(polygons));
+}
 
 /// An upper bound, within 0.005 px, of the largest distance from a point of segment ab to
 /// `index`'s polygons, or `floor` when that largest distance is at most `floor`. Branch and bound
 /// on halvings: the distance is 1-Lipschitz, so a piece of length l whose ends are at da and db
 /// stays below (da + db + l) / 2.
-double segment_sup_distance(const PolygonIndex& index, Vec2 a, Vec2 b, double floor) {
+double segment_sup_distance(const PolygonEdges& index, Vec2 a, Vec2 b, double floor) {
     struct Piece {
         Vec2 a, b;
         double da, db;
@@ -293,7 +194,7 @@ private:
 void remap_bounds(MultiresMesh& model,
                   const std::vector<double>& slice_z,
                   const PlaneMap& map,
-                  const std::vector<PolygonIndex>& polygons) {
+                  const std::vector<PolygonEdges>& polygons) {
     const double stretch = map.stretch();
     for (MultiresGroup& g : model.groups) {
         double to_contours = g.error_px;
@@ -332,7 +233,7 @@ void remap_bounds(MultiresMesh& model,
                             ends.push_back({a.x + s * (b.x - a.x), a.y + s * (b.y - a.y)});
                         }
                     }
-                    const PolygonIndex& index = polygons[k];
+                    const PolygonEdges& index = polygons[k];
                     if (ends.size() == 1) {
                         to_contours = std::max(to_contours, index.distance(ends[0]));
                     }
@@ -590,10 +491,10 @@ Reconstruction reconstruct_contours(const PlanarContours& contours,
             }
         }
         const PlaneMap map(roi, frame);
-        std::vector<PolygonIndex> polygons;
+        std::vector<PolygonEdges> polygons;
         if (!map.affine()) {
             for (const ContourPlane& plane : object.planes) {
-                polygons.emplace_back(plane, frame);
+                polygons.push_back(plane_edges(plane, frame));
             }
         }
         for (ObjectSurface& surface : part.surfaces) {
