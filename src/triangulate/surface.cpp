@@ -765,6 +765,22 @@ double sample_field(const DistanceField* f, Vec2 q) {
            (1 - fu) * fv * f->at(i, j + 1) + fu * fv * f->at(i + 1, j + 1);
 }
 
+/// The closest contour site of field `f` to q (that of the node nearest q); false without a
+/// field.
+bool closest_site(const DistanceField* f, Vec2 q, Vec2& site) {
+    if (f == nullptr || f->nx == 0 || f->ny == 0) {
+        return false;
+    }
+    const double cell = DistanceField::kCellPx;
+    const auto i = std::uint32_t(
+        std::clamp(std::nearbyint((q.x - f->origin_x) / cell), 0.0, double(f->nx - 1)));
+    const auto j = std::uint32_t(
+        std::clamp(std::nearbyint((q.y - f->origin_y) / cell), 0.0, double(f->ny - 1)));
+    const std::array<std::int32_t, 2>& s = f->site_nodes[f->closest(f->node_index(i, j))];
+    site = {f->origin_x + cell * s[0], f->origin_y + cell * s[1]};
+    return true;
+}
+
 /// The root in [0, 1] of the cubic Hermite curve from a (at 0) to b (at 1), a and b of opposite
 /// signs, with end slopes m0 and m1 limited so that the curve is monotone there (Fritsch and
 /// Carlson): the root is unique and moves continuously with the data.
@@ -1123,6 +1139,45 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
         if (unowned_edges_ != 0) {
             issue(k, "medial points split " + std::to_string(unowned_edges_) + " edges");
             unowned_edges_ = 0;
+        }
+    }
+    // Where the cubic height bends away from the straight faces between a medial point and the
+    // contours, a vertex half way to each contour's closest point follows it.
+    if (options_.cubic_height && options_.curvature_tolerance_px > 0.0 && level_z_ == nullptr) {
+        const double d = slice_z(k + 1) - slice_z(k);
+        std::vector<Point> bends;
+        for (const Point& p : medial) {
+            const Vec2 m = to_vec(p);
+            const double tm = height_t(p, k);
+            for (std::uint32_t side = 0; side < 2; ++side) {
+                Vec2 site{};
+                if (!closest_site(field(k + side), m, site)) {
+                    continue;
+                }
+                const Point q = to_point({0.5 * (m.x + site.x), 0.5 * (m.y + site.y)});
+                const double straight = side == 0 ? 0.5 * tm : 0.5 * (tm + 1.0);
+                if (std::abs(height_t(q, k) - straight) * d < options_.curvature_tolerance_px) {
+                    continue;
+                }
+                Cdt::Locate_type type;
+                int li = 0;
+                const FaceHandle f = cdt.locate(q, type, li);
+                if (type == Cdt::FACE && in_surface(f, k)) {
+                    bends.push_back(q);
+                }
+            }
+        }
+        std::sort(bends.begin(), bends.end());
+        bends.erase(std::unique(bends.begin(), bends.end()), bends.end());
+        for (const Point& q : bends) {
+            insert_steiner(cdt, q, k);
+        }
+        if (!bends.empty()) {
+            flood_regions(cdt, k, owners);
+            if (unowned_edges_ != 0) {
+                issue(k, "curvature points split " + std::to_string(unowned_edges_) + " edges");
+                unowned_edges_ = 0;
+            }
         }
     }
 

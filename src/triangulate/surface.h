@@ -33,6 +33,9 @@ struct TriangulateOptions {
     /// Steiner heights from a monotone cubic (Catmull-Rom) interpolation in z of the signed
     /// distance fields of slices k-1 .. k+2 instead of the linear D_k / (D_k - D_k+1).
     bool cubic_height = true;
+    /// With the cubic height: where it is farther than this (px in z) from the straight faces
+    /// between a medial point and a contour, a vertex is added half way; 0: medial points only.
+    double curvature_tolerance_px = 0.1;
     /// Rounds of local refinement (Steiner points) that remove flat chords and split
     /// correspondence jumps before a slab is declared failed.
     unsigned refine_rounds = 12;

@@ -153,7 +153,9 @@ TEST(SimplifyBudget, GroupErrorsStayWithinTheirSchedule) {
 // triangulation's wedge split and medial thinning: torus 2672 / 334 / 116, Y branch 2144 / 206 /
 // 72, spike 180 / 100 / 34). The Y branch at 1 px and the spike were measured again after the
 // domed end caps and the caps extended by d/2 at the stack's ends (they were 1138 and
-// 176 / 106 / 36 with planar caps in the end slices: a dome is shape the cut keeps). The margin
+// 176 / 106 / 36 with planar caps in the end slices: a dome is shape the cut keeps); the torus at
+// 1 px after the vertices that follow the cubic height's curvature (1914 before: the surface
+// bends between slices now, and 2 / 4 px went down to 284 / 112). The margin
 // (10 % + 8 triangles) leaves room for small changes of the collapse order, not for a cost that
 // refuses what it accepted before.
 struct Reference {
@@ -187,7 +189,7 @@ void expect_counts(const Case& c, const std::vector<Reference>& references) {
 }
 
 TEST(SimplifyBudget, TrianglesAtABoundDoNotRegressTorus) {
-    expect_counts(phantom_case("torus", 256), {{1.0, 1914}, {2.0, 684}, {4.0, 238}});
+    expect_counts(phantom_case("torus", 256), {{1.0, 2212}, {2.0, 684}, {4.0, 238}});
 }
 
 TEST(SimplifyBudget, TrianglesAtABoundDoNotRegressYBranch) {
