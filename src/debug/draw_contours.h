@@ -3,7 +3,7 @@
 #include <cstdint>
 
 #include "contours/slice_contours.h"
-#include "debug/rgb_image.h"
+#include "core/rgb_image.h"
 #include "input/slice_stack.h"
 
 namespace strata {

@@ -3,8 +3,8 @@
 #include <cstdint>
 
 #include "contours/slice_contours.h"
+#include "core/rgb_image.h"
 #include "debug/draw_contours.h"
-#include "debug/rgb_image.h"
 #include "distance/distance_field.h"
 #include "medial/medial_axis.h"
 

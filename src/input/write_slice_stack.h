@@ -2,7 +2,7 @@
 
 #include <filesystem>
 
-#include "debug/rgb_image.h"
+#include "core/rgb_image.h"
 #include "input/slice_stack.h"
 
 namespace strata {
