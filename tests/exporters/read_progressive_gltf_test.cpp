@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <set>
 #include <string>
 #include <vector>
@@ -484,6 +485,90 @@ TEST(ReadProgressiveGltfSeeds, WritesFuzzSeeds) {
         const std::size_t chunk = mutated.view(g, "chunks") + get32(g.bin, mutated.table(g) + 32);
         g.bin[chunk + 13] = static_cast<char>(0x7F);
     });
+}
+
+// Each side of the limits the reader checks in the DAG table and the extension's JSON (issue 24
+// item 2): the file as written is on the valid side of each, one step further is refused.
+TEST(ReadProgressiveGltf, TableAndExtensionFieldsEachSideOfTheirLimits) {
+    const std::string good = test::read_file(torus().glb);
+    ASSERT_NO_THROW(read_progressive_gltf(good, "good.glb", nullptr));
+    const Mutator mutated{unpack(good)};
+    const std::string& ext = mutated.ext;
+    const std::size_t groups = mutated.glb.json[Json::json_pointer(ext + "/errors")].size();
+    const std::size_t t0 = mutated.table(mutated.glb);
+    ASSERT_EQ(get32(mutated.glb.bin, t0 + 12), 2u);  // idBytes as written
+    ASSERT_GE(get32(mutated.glb.bin, t0 + 4), 1u);   // clusterCount
+    // clusterCount >= 1; groupCount = errors.length; idBytes 2 or 4
+    expect_rejected(mutated([&](Glb& g) { put32(g.bin, mutated.table(g) + 4, 0); }),
+                    "clusterCount 0, expected >= 1");
+    expect_rejected(
+        mutated([&](Glb& g) { g.json[Json::json_pointer(ext + "/errors")].push_back(1.0); }),
+        "groupCount " + std::to_string(groups) +
+            ", expected errors.length = " + std::to_string(groups + 1));
+    for (const std::uint32_t id_bytes : {1u, 3u}) {
+        expect_rejected(mutated([&](Glb& g) { put32(g.bin, mutated.table(g) + 12, id_bytes); }),
+                        "idBytes " + std::to_string(id_bytes) + ", expected 2 or 4");
+    }
+    // per group record: radius >= 0 (the smallest negative float is refused), chunk length >= 1,
+    // counts >= 1, level >= 1, reserved 0
+    const std::size_t r0 = 16;
+    expect_rejected(mutated([&](Glb& g) {
+                        const float r = -std::numeric_limits<float>::denorm_min();
+                        std::memcpy(g.bin.data() + mutated.table(g) + r0 + 12, &r, 4);
+                    }),
+                    "group 0: negative radius");
+    expect_rejected(mutated([&](Glb& g) { put32(g.bin, mutated.table(g) + r0 + 20, 0); }),
+                    "group 0: empty chunk, expected >= 1 byte");
+    expect_rejected(mutated([&](Glb& g) {
+                        const std::size_t at = mutated.table(g) + r0 + 24;
+                        put32(g.bin, at, get32(g.bin, at) & 0xFFFF0000u);  // consumed count 0
+                    }),
+                    "expected >= 1 each");
+    expect_rejected(mutated([&](Glb& g) {
+                        const std::size_t at = mutated.table(g) + r0 + 28;
+                        put32(g.bin, at, 0);  // level 0, reserved 0
+                    }),
+                    "group 0: level 0, expected >= 1");
+    expect_rejected(mutated([&](Glb& g) {
+                        const std::size_t at = mutated.table(g) + r0 + 28;
+                        put32(g.bin, at, (get32(g.bin, at) & 0xFFFFu) | (1u << 16));
+                    }),
+                    "group 0: reserved bytes not 0");
+    // chunk ranges: the last chunk ends inside the chunks view (before its padding); a chunk
+    // ending one byte past the view's end leaves it
+    const int chunks_view = mutated.glb.json[Json::json_pointer(ext + "/chunks")];
+    const std::size_t view_length = mutated.glb.json["bufferViews"][chunks_view]["byteLength"];
+    std::size_t last = 0, end = 0;
+    for (std::size_t g = 0; g < groups; ++g) {
+        const std::size_t at = t0 + r0 + 32 * g;
+        const std::size_t e =
+            std::size_t(get32(mutated.glb.bin, at + 16)) + get32(mutated.glb.bin, at + 20);
+        if (e > end) {
+            end = e;
+            last = g;
+        }
+    }
+    ASSERT_LE(end, view_length);
+    expect_rejected(mutated([&](Glb& g) {
+                        const std::size_t at = mutated.table(g) + r0 + 32 * last + 20;
+                        put32(g.bin, at, get32(g.bin, at) + std::uint32_t(view_length - end + 1));
+                    }),
+                    "leaves the chunks buffer view");
+    // gridStep > 0; the extension's version exactly 2; asset.version "2.0"
+    expect_rejected(mutated([&](Glb& g) { g.json[Json::json_pointer(ext + "/gridStep")] = 0.0; }),
+                    "gridStep");
+    for (const int version : {1, 3}) {
+        try {
+            read_progressive_gltf(
+                mutated([&](Glb& g) { g.json[Json::json_pointer(ext + "/version")] = version; }),
+                "version.glb", nullptr);
+            ADD_FAILURE() << "extension version " << version << " accepted";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("/version: not 2"), std::string::npos) << e.what();
+        }
+    }
+    expect_rejected(mutated([&](Glb& g) { g.json["asset"]["version"] = "2.1"; }),
+                    "/asset/version: expected \"2.0\"");
 }
 
 }  // namespace
