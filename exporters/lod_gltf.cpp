@@ -494,7 +494,7 @@ LodStats write_lod_gltf(const std::filesystem::path& path,
     json["materials"] = Json::array();
     json["accessors"] = Json::array();
     json["bufferViews"] = Json::array();
-    json["nodes"].push_back({{"name", "patient"},
+    json["nodes"].push_back({{"name", detail::kRootNodeName},
                              {"matrix", json_array(detail::kPatientToGltf)},
                              {"children", Json::array()}});
 

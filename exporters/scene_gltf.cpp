@@ -425,7 +425,7 @@ void write_scene_gltf(const std::filesystem::path& path,
     }
 
     tinygltf::Node root;
-    root.name = "patient";
+    root.name = detail::kRootNodeName;
     root.matrix.assign(detail::kPatientToGltf.begin(), detail::kPatientToGltf.end());
     model.nodes.push_back(std::move(root));
 

@@ -1,7 +1,7 @@
 #pragma once
 
-// What both glTF writers (scene_gltf, progressive_gltf) share: the patient -> glTF transform,
-// colour and float conversions, file names in URIs and staged writes.
+// What the glTF writers (scene_gltf, progressive_gltf, lod_gltf, meshopt_scene) share: the patient
+// -> glTF transform, colour and float conversions, file names in URIs and staged writes.
 
 #include <array>
 #include <atomic>
@@ -35,6 +35,10 @@ inline constexpr std::array<double, 16> kPatientToGltf{
     0,     0.001, 0,      0,  // image of +z_LPS
     0,     0,     0,      1,
 };
+
+/// The name of the root node every writer puts its objects under (its matrix: kPatientToGltf,
+/// or the storage frame's, which ends in patient LPS mm too).
+inline constexpr char kRootNodeName[] = "patient";
 
 /// sRGB-encoded channel in [0, 1] -> linear (IEC 61966-2-1).
 inline double srgb_to_linear(double c) {

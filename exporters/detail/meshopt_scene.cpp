@@ -41,7 +41,7 @@ void write_meshopt_scene(const std::filesystem::path& path,
     json["extensionsRequired"] = {"EXT_meshopt_compression", "KHR_mesh_quantization"};
     json["scene"] = 0;
     json["scenes"] = Json::array({{{"nodes", Json::array({0})}}});
-    Json root = {{"name", "patient"}, {"matrix", Json::array()}, {"children", Json::array()}};
+    Json root = {{"name", kRootNodeName}, {"matrix", Json::array()}, {"children", Json::array()}};
     for (const double v : kPatientToGltf) {
         root["matrix"].push_back(v);
     }

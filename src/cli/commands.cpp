@@ -765,7 +765,7 @@ int run_build(const BuildOptions& options) {
     }
     summary.timings.push_back({"export", export_seconds});
     summary.warnings = report.warnings;
-    summary.summary_file = options.output_dir / "summary.json";
+    summary.summary_file = options.output_dir / kSummaryFileName;
     const std::string summary_text = build_summary_json(summary);
     write_file_atomically(out.staged(summary.summary_file), summary_text);
     out.commit();

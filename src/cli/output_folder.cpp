@@ -111,7 +111,7 @@ StagedOutputFolder::StagedOutputFolder(fs::path final_dir) {
                             "new folder or the output folder of an earlier build");
         }
         const bool is_empty = fs::is_empty(final_, ec);
-        if (!ec && !is_empty && !fs::exists(final_ / "summary.json", ec)) {
+        if (!ec && !is_empty && !fs::exists(final_ / kSummaryFileName, ec)) {
             throw Error(ErrorCode::InvalidInput,
                         where +
                             ": the folder holds files but no summary.json of an earlier build; "

@@ -4,6 +4,9 @@
 
 namespace strata::cli {
 
+/// The file that makes a folder a strata output folder (the build summary, written last).
+inline constexpr char kSummaryFileName[] = "summary.json";
+
 /// The output folder of `strata build`, all or nothing: every output is written into a hidden
 /// sibling folder (`.NAME.strata-tmp-PID`), which replaces the output folder in one step when
 /// the build is done (an atomic exchange of the two folders, then the old one is removed). A
