@@ -1,0 +1,162 @@
+// The triangulation's repair chain, one small fixture per step (docs/architecture.md section 3):
+// two slices whose simplified contours overlap unlike the pixels, each needing one more step
+// than the one before: contours at pixel corners, original points near the neighbouring
+// contours, whole original contours, the split at the AND layer. Found among the random stacks
+// of surface_property_test (seed and slice pair named), cropped with a background margin. Each
+// surface is checked independently: closed, outward, no self-intersection (exact), and the
+// components and genus of the reference volume R by the brute-force labeller.
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/report.h"
+#include "mesh/mesh_checks.h"
+#include "mesh/self_intersection.h"
+#include "pipeline/reconstruct.h"
+#include "support/reference_topology.h"
+
+namespace strata {
+namespace {
+
+/// Two slices drawn as text: 'a' on slice 0 only, 'b' on slice 1 only, 'X' on both, '.' on
+/// neither; a margin of 2 background pixels all round; slice spacing d px.
+SliceStack two_slices(const std::vector<std::string>& rows, double d) {
+    constexpr std::uint32_t kMargin = 2;
+    SliceStack stack;
+    stack.width = static_cast<std::uint32_t>(rows.front().size()) + 2 * kMargin;
+    stack.height = static_cast<std::uint32_t>(rows.size()) + 2 * kMargin;
+    stack.depth = 2;
+    stack.labels.assign(std::size_t(stack.width) * stack.height * 2, 0);
+    for (std::uint32_t j = 0; j < rows.size(); ++j) {
+        for (std::uint32_t i = 0; i < rows[j].size(); ++i) {
+            const char c = rows[j][i];
+            for (std::uint32_t k = 0; k < 2; ++k) {
+                if (c == 'X' || (c == 'a' && k == 0) || (c == 'b' && k == 1)) {
+                    stack.labels[(std::size_t(k) * stack.height + j + kMargin) * stack.width + i +
+                                 kMargin] = 1;
+                }
+            }
+        }
+    }
+    stack.index_to_world.linear = {{{1, 0, 0}, {0, 1, 0}, {0, 0, d}}};
+    stack.label_table.push_back({1, "blob", {200, 80, 80}});
+    stack.source = "test";
+    return stack;
+}
+
+/// The surface of label 1, checked against R independently of the pipeline's own verification.
+ObjectSurface checked_surface(const SliceStack& stack) {
+    Report report;
+    ReconstructOptions options;
+    options.simplify = false;
+    options.threads = 1;
+    const Reconstruction result = reconstruct(stack, options, report);
+    EXPECT_EQ(result.surfaces.size(), 1u);
+    if (result.surfaces.empty()) {
+        return {};
+    }
+    const ObjectSurface& surface = result.surfaces.front();
+    const MeshReport check = check_mesh(surface.mesh);
+    EXPECT_TRUE(is_closed_manifold(check)) << (check.problems.empty() ? "" : check.problems[0]);
+    EXPECT_GT(check.signed_volume, 0.0);
+    EXPECT_FALSE(has_self_intersections(surface.mesh));
+    std::vector<int> genus;
+    for (const MeshComponent& c : check.components) {
+        genus.push_back(c.genus.value_or(-1));
+    }
+    std::sort(genus.rbegin(), genus.rend());
+    std::vector<int> expected;
+    for (const test::ReferenceSurface& s :
+         test::reference_topology_brute_force(stack, 1).surfaces) {
+        expected.push_back(s.genus);
+    }
+    std::sort(expected.rbegin(), expected.rend());
+    EXPECT_EQ(genus, expected);
+    EXPECT_TRUE(surface.verification.ok()) << surface.verification.problem;
+    EXPECT_EQ(surface.topology_mismatches, 0u);
+    return surface;
+}
+
+TEST(FallbackSteps, ContoursAtPixelCornersSuffice) {
+    // seed 1882953283 of surface_property_test, slices 4-5
+    const ObjectSurface s = checked_surface(two_slices(
+        {
+            "....aa................",
+            "...aXXa...............",
+            "...XXXXaaaaa..........",
+            "...bbbbbbbXaaa........",
+            "...b....bbbXXXaa......",
+            "...b....bbbXXXXaa.....",
+            "..bbbbbbbbXXXXXXaaaa..",
+            "aaXXXXXXXXXXXXXXaaaaaa",
+            "aaXXXXXXXXXXXXXXXaaaaa",
+            "aaXXXXXXXXXXXXXXaaaaaa",
+            "aaXXXXXXXXXXXXXXaaaa..",
+            ".aXXXXXXXXXXXXXXa.....",
+            ".aaXXXXXXXXXXXXaa.....",
+            "..aaXXXXXXXXXaaa......",
+            "...aaaaXXXXaaa........",
+            "......aaaaaa..........",
+        },
+        9.0));
+    EXPECT_FALSE(s.at_corners.empty());
+    EXPECT_TRUE(s.partly_unsimplified.empty());
+    EXPECT_TRUE(s.unsimplified.empty());
+    EXPECT_EQ(s.split_slabs, 0u);
+}
+
+TEST(FallbackSteps, OriginalPointsNearTheNeighbouringContours) {
+    // seed 916483116, slices 5-6
+    const ObjectSurface s = checked_surface(two_slices(
+        {
+            "....bXXXXXX.....",
+            "a.XXaaaaXXXXXb..",
+            "aXaaaaaaaaXXXXX.",
+            "XXaaaaaaaaXXXXXb",
+            "XXaaaaaaaaaXXXXX",
+            "XXaaaaaaaaXXXXXX",
+            "XXaaaaaaaaXXXXX.",
+            "aXXaaaaaaXXXXXb.",
+            "a.XXXaaXXXXXX...",
+            ".....bXXXXb.....",
+        },
+        3.0));
+    EXPECT_FALSE(s.partly_unsimplified.empty());
+    EXPECT_TRUE(s.unsimplified.empty());
+    EXPECT_EQ(s.split_slabs, 0u);
+}
+
+TEST(FallbackSteps, WholeOriginalContours) {
+    // seed 3556634808, slices 0-1
+    const ObjectSurface s = checked_surface(two_slices(
+        {
+            "..aaaa.....aaaa..",
+            "aaaaaX.....baaaaa",
+            ".aaaaa......aaaa.",
+        },
+        8.0));
+    EXPECT_FALSE(s.unsimplified.empty());
+    EXPECT_EQ(s.split_slabs, 0u);
+}
+
+TEST(FallbackSteps, SplitAtTheAndLayer) {
+    // seed 4114208135, slices 0-1
+    const ObjectSurface s = checked_surface(two_slices(
+        {
+            "..bXaaaaaXXb..",
+            ".Xa.......aXb.",
+            "bXXa.....aXXXb",
+            "bXXXXXXXXXXXXb",
+            ".XXXXXXXXXXXb.",
+            "..bXXXXXXXXb..",
+        },
+        4.0));
+    EXPECT_GT(s.split_slabs, 0u);
+}
+
+}  // namespace
+}  // namespace strata
