@@ -1012,6 +1012,11 @@ def gnu_time_cpu(path):
     return wall, user + system, rss
 
 
+def finished(paths):
+    """The `/usr/bin/time -v` logs of runs that ended (a run still going has an empty log)."""
+    return [p for p in paths if "Elapsed" in p.read_text()]
+
+
 def run_cases_table(args):
     work = pathlib.Path(args.work)
     med = lambda v: float(np.median(v)) if v else float("nan")  # noqa: E731
@@ -1024,7 +1029,7 @@ def run_cases_table(args):
     notes = []
     for d in cases:
         case = json.loads((d / "case.json").read_text())
-        slicer = [gnu_time_cpu(p) for p in sorted(d.glob("slicer_*.time"))]
+        slicer = [gnu_time_cpu(p) for p in finished(sorted(d.glob("slicer_*.time")))]
         slicer_json = [json.loads(p.read_text()) for p in sorted(d.glob("slicer_*.json"))]
         v_wall = med([w for w, _, _ in slicer])
         v_rss = med([r for _, _, r in slicer])
@@ -1032,7 +1037,7 @@ def run_cases_table(args):
         rows = []
         walls = {}
         for t in case["threads"]:
-            runs = [gnu_time_cpu(p) for p in sorted(d.glob(f"strata_t{t}_*.time"))]
+            runs = [gnu_time_cpu(p) for p in finished(sorted(d.glob(f"strata_t{t}_*.time")))]
             if not runs:
                 continue
             stages = [json.loads(p.read_text()).get("timings_s", {})

@@ -562,6 +562,7 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
         reconstruct_options.quantize.max_halvings = 0;
     }
     reconstruct_options.progress = progress.callback();
+    reconstruct_options.keep_fields = !options.debug_dir.empty();  // note: debug pictures read them
     BuildInput in;
     if (!options.input.empty() && is_planar_contour_file(options.input)) {
         // Planar contours (RTSTRUCT, contour JSON): one reconstruction per structure, gathered

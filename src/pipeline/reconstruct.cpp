@@ -191,6 +191,21 @@ std::string quantize_and_verify(const SliceStack& stack,
     return "kept unsnapped (no progressive export): " + why;
 }
 
+/// Frees the distance fields of `label` on every slice (they stay in place, empty).
+/// note: other threads read other labels' fields meanwhile; the label member stays as it was.
+void release_fields(std::vector<SliceDistanceFields>& fields, std::uint16_t label) {
+    for (SliceDistanceFields& slice : fields) {
+        for (DistanceField& field : slice.fields) {
+            if (field.label == label) {
+                field.node_sites = {};
+                field.sites = {};
+                field.site_nodes = {};
+                field.nx = field.ny = 0;
+            }
+        }
+    }
+}
+
 }  // namespace
 
 Reconstruction reconstruct(const SliceStack& stack,
@@ -334,6 +349,9 @@ Reconstruction reconstruct(const SliceStack& stack,
                 surface.mesh, meter, surface.contour_deviation_px + surface.grid_shift_px,
                 label_options);
             result.models[i].grid_step = surface.grid_step;
+            if (!options.keep_fields) {
+                release_fields(result.fields, surface.label);
+            }
             if (options.progress) {
                 const std::lock_guard<std::mutex> lock(progress_mutex);
                 options.progress("simplify labels", ++done, result.surfaces.size());

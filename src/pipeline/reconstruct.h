@@ -34,6 +34,10 @@ struct ReconstructOptions {
     /// that failed verification is kept at full resolution (one level) and a warning says so.
     bool simplify = true;
     MultiresOptions multires;
+    /// Keep every distance field in the result. False: a label's fields are released as soon
+    /// as its multiresolution model is built (nothing after needs them but debug pictures), so
+    /// the memory of the labels done goes to the export.
+    bool keep_fields = true;
     unsigned threads = 0;  ///< worker threads of every stage, 0 = all cores
     ProgressFn progress;   ///< stage progress (may be empty)
 };
@@ -71,7 +75,7 @@ void verify_surface(const ReferenceTopology& reference, ObjectSurface& surface);
 /// Everything the pipeline produced, stage by stage.
 struct Reconstruction {
     SliceContours contours;
-    std::vector<SliceDistanceFields> fields;  ///< one per slice
+    std::vector<SliceDistanceFields> fields;  ///< one per slice (emptied unless keep_fields)
     std::vector<MedialAxis> medial_axes;      ///< one per consecutive slice pair
     std::vector<ObjectSurface> surfaces;      ///< one closed surface per label, slice space
     std::vector<MultiresMesh> models;         ///< per surface (when simplified), slice space
