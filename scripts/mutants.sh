@@ -320,7 +320,10 @@ for i in "${!names[@]}"; do
         else
             status=caught
             detail="$(grep -Eo '[0-9]+ tests failed out of [0-9]+' "$log/$name.test" | tail -1)"
-            first=$(grep -E '^\s+[0-9]+ - ' "$log/$name.test" | head -1 | sed -E 's/^\s+[0-9]+ - //; s/ \(.*//')
+            # note: the first test that failed, not one that was skipped
+            first=$(sed -n '/The following tests FAILED/,$p' "$log/$name.test" |
+                grep -E '^\s+[0-9]+ - ' | grep -v '(Skipped)' | head -1 |
+                sed -E 's/^\s+[0-9]+ - //; s/ \(.*//')
             [[ -n $first ]] && detail="$detail, e.g. $first"
         fi
     fi
