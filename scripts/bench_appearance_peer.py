@@ -28,6 +28,10 @@ iterations, vtkPolyDataNormals consistency on, splitting off).
   slice error: the surface's sections with the planes through the slice centres (index z = k)
     against the label's pixel boundary on that slice (edges between pixels in and out): mean
     and max distance (mm) of points every 0.1 px along the sections to that boundary.
+`folds NIFTI MESH.ply [--list N]` finds the edges folded over 90 degrees: their count per slab
+(index k for k <= z < k + 1 of the edge's midpoint, voxel index frame), by kind (each end and
+the two opposite corners: C on a slice plane, S between slices; short = under 0.35 px in plane)
+and the N sharpest with their ends in voxel indices.
 `normals MESH.ply OUT.ply` writes the mesh again with strata's shading normals computed here.
 `render OUT.png TITLE=MESH.ply...` draws the meshes side by side, one camera for all (the
 first mesh's bounds), offscreen (VTK; run it under xvfb-run), Phong-shaded with the files'
@@ -351,6 +355,41 @@ def run_metrics(args):
     pathlib.Path(args.out).write_text(json.dumps(result, indent=1) + "\n")
 
 
+def run_folds(args):
+    import collections
+    points, triangles = e2e.read_ply(args.mesh)
+    _, lps = e2e.read_nifti(args.nifti)
+    inv = np.linalg.inv(lps)
+    index = points @ inv[:3, :3].T + inv[:3, 3]
+    p = points[triangles]
+    face_n = unit(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
+    edges, faces = edges_with_faces(triangles)
+    dihedral = angle_deg(face_n[faces[:, 0]], face_n[faces[:, 1]])
+    fold = dihedral > 90.0
+    print(f"{args.mesh}: {int(fold.sum())} of {len(edges)} edges folded over 90 degrees "
+          f"({100.0 * fold.mean():.3f} %)")
+    ends = index[edges[fold]]
+    slab = np.floor(0.5 * (ends[:, 0, 2] + ends[:, 1, 2]) + 1e-6).astype(int)
+    print("per slab:", " ".join(f"{k}:{n}" for k, n in sorted(collections.Counter(
+        slab.tolist()).items(), key=lambda kn: -kn[1])))
+
+    def kind(v):
+        z = index[v, 2]
+        return "C" if abs(z - round(z)) < 1e-4 else "S"
+    kinds = collections.Counter()
+    for (a, b), (f, g) in zip(edges[fold], faces[fold]):
+        oa = next(v for v in triangles[f] if v not in (a, b))
+        ob = next(v for v in triangles[g] if v not in (a, b))
+        short = np.linalg.norm(index[a, :2] - index[b, :2]) < 0.35
+        kinds["".join(sorted(kind(a) + kind(b))) + "/" + "".join(sorted(kind(oa) + kind(ob))) +
+              (" short" if short else "")] += 1
+    print("edge/opposite:", " ".join(f"{k}:{n}" for k, n in kinds.most_common()))
+    for o in np.argsort(-dihedral[fold])[:args.list]:
+        a, b = ends[o]
+        print(f"{dihedral[fold][o]:6.1f} deg  ({a[0]:.2f}, {a[1]:.2f}, {a[2]:.3f}) -> "
+              f"({b[0]:.2f}, {b[1]:.2f}, {b[2]:.3f})")
+
+
 def run_normals(args):
     points, triangles, _ = e2e.read_ply(args.mesh, with_normals=True)
     e2e.write_ply(args.out, points, triangles, shading_normals(points, triangles))
@@ -485,6 +524,11 @@ def main():
                    help="compute strata's shading normals here (checked against the file's)")
     p.add_argument("--out", required=True)
     p.set_defaults(run=run_metrics)
+    p = sub.add_parser("folds")
+    p.add_argument("nifti")
+    p.add_argument("mesh")
+    p.add_argument("--list", type=int, default=20)
+    p.set_defaults(run=run_folds)
     p = sub.add_parser("normals")
     p.add_argument("mesh")
     p.add_argument("out")
