@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstddef>
+#include <cstdlib>
 #include <deque>
 #include <limits>
 #include <map>
@@ -104,6 +105,104 @@ EdgeKey edge_key(VertexHandle a, VertexHandle b) {
 struct EdgeOwner {
     std::int32_t lower = -1;
     std::int32_t upper = -1;
+};
+
+Point to_point(Vec2 p) {
+    return Point(p.x, p.y);
+}
+
+Vec2 to_vec(const Point& p) {
+    return {CGAL::to_double(p.x()), CGAL::to_double(p.y())};
+}
+
+/// The edges of one slice's contour rings, bucketed on a square grid, for nearest-edge queries.
+class SegmentGrid {
+public:
+    SegmentGrid() = default;
+    explicit SegmentGrid(const std::vector<Ring>& rings) {
+        for (const Ring& ring : rings) {
+            const std::size_t n = ring.points.size();
+            for (std::size_t i = 0; i < n; ++i) {
+                segments_.push_back({to_vec(ring.points[i]), to_vec(ring.points[(i + 1) % n])});
+            }
+        }
+        if (segments_.empty()) {
+            return;
+        }
+        lo_ = hi_ = segments_.front()[0];
+        for (const auto& s : segments_) {
+            for (const Vec2 p : s) {
+                lo_ = {std::min(lo_.x, p.x), std::min(lo_.y, p.y)};
+                hi_ = {std::max(hi_.x, p.x), std::max(hi_.y, p.y)};
+            }
+        }
+        nx_ = std::int64_t((hi_.x - lo_.x) / kCell) + 1;
+        ny_ = std::int64_t((hi_.y - lo_.y) / kCell) + 1;
+        cells_.assign(std::size_t(nx_ * ny_), {});
+        for (std::uint32_t i = 0; i < segments_.size(); ++i) {
+            const auto& s = segments_[i];
+            const auto [i0, j0] = cell(Vec2{std::min(s[0].x, s[1].x), std::min(s[0].y, s[1].y)});
+            const auto [i1, j1] = cell(Vec2{std::max(s[0].x, s[1].x), std::max(s[0].y, s[1].y)});
+            for (std::int64_t j = j0; j <= j1; ++j) {
+                for (std::int64_t c = i0; c <= i1; ++c) {
+                    cells_[std::size_t(j * nx_ + c)].push_back(i);
+                }
+            }
+        }
+    }
+
+    /// Distance (px) from q to the nearest edge; infinity without edges.
+    double distance(Vec2 q) const {
+        double best = std::numeric_limits<double>::infinity();
+        if (segments_.empty()) {
+            return best;
+        }
+        // q's projection onto the grid's box lies in cell (ci, cj); the cells of ring r + 1
+        // around it are at least r cells away from q.
+        const auto [ci, cj] = cell(q);
+        for (std::int64_t r = 0;; ++r) {
+            if (std::sqrt(best) <= (r - 1) * kCell || (r > nx_ && r > ny_)) {
+                break;
+            }
+            for (std::int64_t j = cj - r; j <= cj + r; ++j) {
+                if (j < 0 || j >= ny_) {
+                    continue;
+                }
+                const bool edge_row = j == cj - r || j == cj + r;
+                for (std::int64_t i = ci - r; i <= ci + r;
+                     i += edge_row ? 1 : 2 * std::max<std::int64_t>(r, 1)) {
+                    if (i < 0 || i >= nx_) {
+                        continue;
+                    }
+                    for (const std::uint32_t s : cells_[std::size_t(j * nx_ + i)]) {
+                        best = std::min(best, squared_distance(q, segments_[s]));
+                    }
+                }
+            }
+        }
+        return std::sqrt(best);
+    }
+
+private:
+    static constexpr double kCell = 2.0;  // px
+    std::pair<std::int64_t, std::int64_t> cell(Vec2 p) const {
+        const auto i = std::int64_t(std::floor((std::clamp(p.x, lo_.x, hi_.x) - lo_.x) / kCell));
+        const auto j = std::int64_t(std::floor((std::clamp(p.y, lo_.y, hi_.y) - lo_.y) / kCell));
+        return {std::min(i, nx_ - 1), std::min(j, ny_ - 1)};
+    }
+    static double squared_distance(Vec2 q, const std::array<Vec2, 2>& s) {
+        const Vec2 ab = s[1] - s[0];
+        const double length2 = dot(ab, ab);
+        const double u = length2 > 0.0 ? std::clamp(dot(q - s[0], ab) / length2, 0.0, 1.0) : 0.0;
+        const Vec2 c = s[0] + u * ab;
+        return dot(q - c, q - c);
+    }
+    std::vector<std::array<Vec2, 2>> segments_;
+    std::vector<std::vector<std::uint32_t>> cells_;
+    Vec2 lo_{};
+    Vec2 hi_{};
+    std::int64_t nx_ = 0;
+    std::int64_t ny_ = 0;
 };
 
 class LabelSurface {
@@ -228,6 +327,8 @@ private:
     std::vector<double> steiner_t_;
     std::vector<std::int32_t> steiner_id_;
     std::vector<Vec2> steiner_xy_;
+    /// The contour rings of the slab being built's two slices (height_t).
+    std::array<SegmentGrid, 2> slab_rings_;
     std::size_t unowned_edges_ = 0;
     std::vector<std::uint32_t> mismatched_slabs_;
 
@@ -246,14 +347,6 @@ private:
     std::vector<Overlap> overlaps_;
     void share_overlap_points();  ///< constrained edges split by the triangulation (a bug)
 };
-
-Point to_point(Vec2 p) {
-    return Point(p.x, p.y);
-}
-
-Vec2 to_vec(const Point& p) {
-    return {CGAL::to_double(p.x()), CGAL::to_double(p.y())};
-}
 
 void LabelSurface::collect_contours() {
     const std::size_t slices = contours_.slices.size();
@@ -866,6 +959,17 @@ double LabelSurface::height_t(const Point& p, std::uint32_t k) const {
         }
         t = hermite_root(a, b, m0, m1);
     }
+    // The fields measure the distance to the original contours, while the surface meets the
+    // simplified ones (up to the tolerance away): alone they folded the graph where the two
+    // disagree, e.g. a point right beside slice k+1's simplified contour at t = 1/2, or inside
+    // (outside) both slices by the fields and clamped to 0.05 or 0.95 between them. So half the
+    // difference between the simplified rings' own distance ratio d_k / (d_k + d_k+1) and the
+    // fields' ratio is added, and that ratio alone is taken where the fields put the point on
+    // the same side of both slices.
+    const double pa = slab_rings_[0].distance(q);
+    const double pb = slab_rings_[1].distance(q);
+    const double rings = pa + pb > 0.0 ? pa / (pa + pb) : 0.5;
+    t = a * b < 0.0 ? t + 0.5 * (rings - a / (a - b)) : rings;
     return std::clamp(t, 0.05, 0.95);
 }
 
@@ -1093,6 +1197,7 @@ std::vector<bool> thin_medial_curve(const MedialCurve& curve, const TriangulateO
 }
 
 void LabelSurface::triangulate_slab(std::uint32_t k) {
+    slab_rings_ = {SegmentGrid(rings_[k]), SegmentGrid(rings_[k + 1])};
     Cdt cdt;
     std::map<EdgeKey, EdgeOwner> owners;
     insert_rings(cdt, k, false, owners);

@@ -124,7 +124,8 @@ bool unsimplify_near_neighbours(SliceContourSet& set,
 ///
 /// Between slices k and k+1 the surface is the graph, over the symmetric difference of the two
 /// slices' simplified regions (only regions linked across the slab), of the shape-based
-/// interpolation height t (TriangulateOptions::cubic_height; linear: t = D_k / (D_k - D_k+1)):
+/// interpolation height t (TriangulateOptions::cubic_height; linear: t = D_k / (D_k - D_k+1);
+/// moved half way to the same ratio of the distances to the simplified contours, see height_t):
 /// it runs from the contour of slice k (t = 0)
 /// through the medial axis (t = 1/2, the paper's correspondence curve, inserted as vertices) to
 /// the contour of slice k+1 (t = 1). The planar domain is an exact constrained Delaunay

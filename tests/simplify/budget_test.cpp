@@ -158,6 +158,17 @@ TEST(SimplifyBudget, GroupErrorsStayWithinTheirSchedule) {
 // bends between slices now, and 2 / 4 px went down to 284 / 112). The margin
 // (10 % + 8 triangles) leaves room for small changes of the collapse order, not for a cost that
 // refuses what it accepted before.
+// Why counts at one bound jump (torus 334 -> 684 at 2 px after the medial thinning, f99bc05):
+// a uniform cut takes whole DAG levels, each about 0.35 of the triangles of the one below, so
+// its count moves about 3x when one level's declared error crosses the bound, at the same error
+// for the same count. After the thinning the torus' levels declared 1.41 / 2.10 / 4.17 px at
+// 688 / 240 / 100 triangles, without it (medial_tolerance_px 0) 1.70 / 3.37 px at 328 / 126:
+// the 2 and 4 px bounds fell on the other side of a level; no loss of the simplifier. Later the
+// other way: after the rings' correction of the height t (with the cubic height and its bend
+// vertices) the torus needs 2280 / 278 / 112 triangles and the Y branch 670 / 186 / 64. Those
+// references stay where they were, since a change of a level's error by a few percent moves
+// them 3x. The spike's coarsest level keeps 62 triangles since that correction (declared
+// 3.76 px at any bound from 3.8 px up; 44 before): its reference at 4 px is 62.
 struct Reference {
     double bound_px;
     std::size_t triangles;
@@ -197,7 +208,7 @@ TEST(SimplifyBudget, TrianglesAtABoundDoNotRegressYBranch) {
 }
 
 TEST(SimplifyBudget, TrianglesAtABoundDoNotRegressSpike) {
-    expect_counts(spike_case(), {{1.0, 260}, {2.0, 130}, {4.0, 44}});
+    expect_counts(spike_case(), {{1.0, 260}, {2.0, 130}, {4.0, 62}});
 }
 
 }  // namespace
