@@ -97,6 +97,7 @@ SurfaceSummary summarize_surface(const ObjectSurface& surface,
     s.caps = surface.caps;
     s.steiner_points = surface.steiner_points;
     s.fallback_corner_slices = surface.at_corners.size();
+    s.fallback_partly_unsimplified_slices = surface.partly_unsimplified.size();
     s.fallback_unsimplified_slices = surface.unsimplified_slices;
     s.fallback_split_slabs = surface.split_slabs;
     s.verified = surface.verification.ok();
@@ -179,6 +180,7 @@ Json surface_json(const SurfaceSummary& s) {
               {"caps", s.caps},
               {"steiner_points", s.steiner_points},
               {"fallback_corner_slices", s.fallback_corner_slices},
+              {"fallback_partly_unsimplified_slices", s.fallback_partly_unsimplified_slices},
               {"fallback_unsimplified_slices", s.fallback_unsimplified_slices},
               {"fallback_split_slabs", s.fallback_split_slabs},
               {"verified", s.verified},

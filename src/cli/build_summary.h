@@ -82,6 +82,7 @@ struct SurfaceSummary {
     std::uint32_t caps = 0;
     std::uint32_t steiner_points = 0;
     std::size_t fallback_corner_slices = 0;
+    std::size_t fallback_partly_unsimplified_slices = 0;
     std::uint32_t fallback_unsimplified_slices = 0;
     std::uint32_t fallback_split_slabs = 0;
     bool verified = false;
