@@ -17,6 +17,7 @@
 #include <CGAL/Box_intersection_d/Box_with_info_d.h>
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 #include <CGAL/box_intersection_d.h>
@@ -1993,9 +1994,15 @@ double contour_deviation_px(const SliceContours& contours, std::uint16_t label) 
 /// Whether the simplified contours of `label` on one slice are simple and pairwise disjoint
 /// (exact predicates), as the triangulation needs them.
 bool contours_clean(const SliceContourSet& set, std::uint16_t label) {
+    // Predicates only, on double coordinates: the exact-predicates kernel decides them exactly
+    // without the lazy exact constructions (whose filter, inlined here, gcc 12 under the
+    // sanitizers reports as maybe-uninitialized).
+    using PredicateKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+    using EdgeSegment = PredicateKernel::Segment_2;
+    using EdgePoint = PredicateKernel::Point_2;
     using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 2, std::array<std::uint32_t, 2>>;
     std::vector<Box> boxes;
-    std::vector<std::vector<Segment>> segments;
+    std::vector<std::vector<EdgeSegment>> segments;
     for (const Contour& c : set.contours) {
         if (c.label != label) {
             continue;
@@ -2009,7 +2016,7 @@ bool contours_clean(const SliceContourSet& set, std::uint16_t label) {
             double lo[2] = {std::min(a.x, b.x), std::min(a.y, b.y)};
             double hi[2] = {std::max(a.x, b.x), std::max(a.y, b.y)};
             boxes.emplace_back(lo, hi, std::array<std::uint32_t, 2>{contour, e});
-            segments.back().push_back(Segment(to_point(a), to_point(b)));
+            segments.back().push_back(EdgeSegment(EdgePoint(a.x, a.y), EdgePoint(b.x, b.y)));
         }
     }
     bool clean = true;
@@ -2018,8 +2025,8 @@ bool contours_clean(const SliceContourSet& set, std::uint16_t label) {
         [&](const Box& p, const Box& q) {
             const auto [cp, ep] = p.info();
             const auto [cq, eq] = q.info();
-            const Segment& a = segments[cp][ep];
-            const Segment& b = segments[cq][eq];
+            const EdgeSegment& a = segments[cp][ep];
+            const EdgeSegment& b = segments[cq][eq];
             const std::size_t n = segments[cp].size();
             if (cp == cq && (ep + 1) % n == eq) {
                 // consecutive: they share a.target() == b.source() and nothing else
