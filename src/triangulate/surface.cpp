@@ -240,6 +240,13 @@ private:
                       std::map<EdgeKey, EdgeOwner>& owners,
                       std::int64_t only_region = -1);
     void flood_regions(Cdt& cdt, std::uint32_t k, const std::map<EdgeKey, EdgeOwner>& owners);
+    /// Inserts Steiner points in slab k, floods the regions again and reports the edges they
+    /// split (`what` names the points in the report).
+    void insert_steiners(Cdt& cdt,
+                         const std::vector<Point>& points,
+                         std::uint32_t k,
+                         const std::map<EdgeKey, EdgeOwner>& owners,
+                         const char* what);
     void check_overlap_topology(Cdt& cdt, std::uint32_t k);
     bool in_lower(const FaceInfo& f, std::uint32_t k) const;
     bool in_upper(const FaceInfo& f, std::uint32_t k) const;
@@ -575,6 +582,21 @@ void LabelSurface::insert_rings(Cdt& cdt,
 
 /// Labels every face with the region of slice k and of slice k+1 it lies in, by walking from the
 /// infinite face and toggling the region across each contour edge.
+void LabelSurface::insert_steiners(Cdt& cdt,
+                                   const std::vector<Point>& points,
+                                   std::uint32_t k,
+                                   const std::map<EdgeKey, EdgeOwner>& owners,
+                                   const char* what) {
+    for (const Point& p : points) {
+        insert_steiner(cdt, p, k);
+    }
+    flood_regions(cdt, k, owners);
+    if (unowned_edges_ != 0) {
+        issue(k, std::string(what) + " split " + std::to_string(unowned_edges_) + " edges");
+        unowned_edges_ = 0;
+    }
+}
+
 void LabelSurface::flood_regions(Cdt& cdt,
                                  std::uint32_t k,
                                  const std::map<EdgeKey, EdgeOwner>& owners) {
@@ -1237,15 +1259,8 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
             }
         }
     }
-    for (const Point& p : medial) {
-        insert_steiner(cdt, p, k);
-    }
     if (!medial.empty()) {
-        flood_regions(cdt, k, owners);
-        if (unowned_edges_ != 0) {
-            issue(k, "medial points split " + std::to_string(unowned_edges_) + " edges");
-            unowned_edges_ = 0;
-        }
+        insert_steiners(cdt, medial, k, owners, "medial points");
     }
     // Where the cubic height bends away from the straight faces between a medial point and the
     // contours, a vertex half way to each contour's closest point follows it.
@@ -1275,15 +1290,8 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
         }
         std::sort(bends.begin(), bends.end());
         bends.erase(std::unique(bends.begin(), bends.end()), bends.end());
-        for (const Point& q : bends) {
-            insert_steiner(cdt, q, k);
-        }
         if (!bends.empty()) {
-            flood_regions(cdt, k, owners);
-            if (unowned_edges_ != 0) {
-                issue(k, "curvature points split " + std::to_string(unowned_edges_) + " edges");
-                unowned_edges_ = 0;
-            }
+            insert_steiners(cdt, bends, k, owners, "curvature points");
         }
     }
 
@@ -1336,14 +1344,7 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
         }
         std::sort(refine.begin(), refine.end());
         refine.erase(std::unique(refine.begin(), refine.end()), refine.end());
-        for (const Point& p : refine) {
-            insert_steiner(cdt, p, k);
-        }
-        flood_regions(cdt, k, owners);
-        if (unowned_edges_ != 0) {
-            issue(k, "refinement split " + std::to_string(unowned_edges_) + " edges");
-            unowned_edges_ = 0;
-        }
+        insert_steiners(cdt, refine, k, owners, "refinement");
     }
     if (!valid) {
         ++surface_.failed_slabs;
