@@ -1,4 +1,5 @@
-// Folders of 2D label images and multi-page TIFFs, read with OpenImageIO.
+// Folders of 2D label images and multi-page TIFFs: TIFF with libtiff, other formats with the
+// OpenImageIO module (detail/image_files.h).
 
 #include <algorithm>
 #include <cctype>
@@ -8,10 +9,10 @@
 #include <tuple>
 #include <vector>
 
-#include <OpenImageIO/imageio.h>
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "input/detail/image_files.h"
 #include "input/detail/readers.h"
 #include "input/detail/tiff.h"
 
@@ -222,14 +223,14 @@ Sidecar read_sidecar(const fs::path& file) {
 
 /// Reads one single-channel 8/16-bit image (subimage `page`) into `out` (width*height values).
 /// `where` names the slice for messages.
-void read_label_image(OIIO::ImageInput& in,
+void read_label_image(ImageFile& in,
                       int page,
                       std::uint32_t width,
                       std::uint32_t height,
                       const std::string& where,
                       std::uint16_t* out,
                       Report& report) {
-    const OIIO::ImageSpec& spec = in.spec();
+    const StrataImageSpec& spec = in.spec();
     if (spec.width <= 0 || spec.height <= 0) {
         throw Error(ErrorCode::InvalidInput, where + ": empty image " + std::to_string(spec.width) +
                                                  "x" + std::to_string(spec.height));
@@ -245,30 +246,30 @@ void read_label_image(OIIO::ImageInput& in,
                                                 std::to_string(spec.depth) +
                                                 ", expected a 2D slice");
     }
-    const OIIO::TypeDesc format = spec.format;
-    const bool is8 = format == OIIO::TypeDesc::UINT8;
-    const bool is16 = format == OIIO::TypeDesc::UINT16;
+    const bool is8 = spec.pixel_type == kStrataPixelU8;
+    const bool is16 = spec.pixel_type == kStrataPixelU16;
     if (!is8 && !is16) {
-        throw Error(ErrorCode::Unsupported, where + ": pixel type " + std::string(format.c_str()) +
+        throw Error(ErrorCode::Unsupported, where + ": pixel type " +
+                                                std::string(spec.format_name) +
                                                 ", expected 8- or 16-bit unsigned integer labels");
     }
-    const int channels = spec.nchannels;
+    const int channels = spec.channels;
     if (channels < 1) {
         throw Error(ErrorCode::InvalidInput, where + ": image has no channels");
     }
     const std::size_t n = std::size_t(width) * height;
     std::vector<std::uint16_t> pixels(n * std::size_t(channels));
     bool ok = false;
+    std::string error;
     if (is8) {
         std::vector<std::uint8_t> raw(n * std::size_t(channels));
-        ok = in.read_image(page, 0, 0, channels, OIIO::TypeDesc::UINT8, raw.data());
+        ok = in.read(page, channels, false, raw.data(), error);
         std::copy(raw.begin(), raw.end(), pixels.begin());
     } else {
-        ok = in.read_image(page, 0, 0, channels, OIIO::TypeDesc::UINT16, pixels.data());
+        ok = in.read(page, channels, true, pixels.data(), error);
     }
     if (!ok) {
-        throw Error(ErrorCode::InvalidInput,
-                    where + ": cannot decode image data: " + in.geterror());
+        throw Error(ErrorCode::InvalidInput, where + ": cannot decode image data: " + error);
     }
     // Colour or grey+alpha label images: accept when every colour channel agrees (alpha ignored).
     const int colour_channels = (channels == 2 || channels == 4) ? channels - 1 : channels;
@@ -315,18 +316,6 @@ void check_image_holds(const fs::path& file, std::uint64_t pixels) {
                         " bytes can hold at most " + std::to_string(can_hold) +
                         ", expected image data for every pixel (truncated or forged header?)");
     }
-}
-
-std::unique_ptr<OIIO::ImageInput> open_image(const fs::path& file) {
-    auto in = OIIO::ImageInput::open(file.string());
-    if (!in) {
-        std::string message = OIIO::geterror();
-        if (message.empty()) {
-            message = "unknown format or unreadable file";
-        }
-        throw Error(ErrorCode::InvalidInput, file.string() + ": cannot read image: " + message);
-    }
-    return in;
 }
 
 }  // namespace
@@ -386,8 +375,8 @@ SliceStack read_image_folder(const fs::path& folder, const ReadOptions& options,
         TiffFile first(image_dir / names[0]);
         std::tie(stack.width, stack.height) = first.size();
     } else {
-        auto first = open_image(image_dir / names[0]);
-        const OIIO::ImageSpec& spec = first->spec();
+        const ImageFile first(image_dir / names[0]);
+        const StrataImageSpec& spec = first.spec();
         stack.width = static_cast<std::uint32_t>(std::max(spec.width, 0));
         stack.height = static_cast<std::uint32_t>(std::max(spec.height, 0));
     }
@@ -421,8 +410,8 @@ SliceStack read_image_folder(const fs::path& folder, const ReadOptions& options,
             tiff.read_page(stack.width, stack.height, where, slice, warned_channels, report);
             std::copy(slice.begin(), slice.end(), stack.slice(k).begin());
         } else {
-            auto in = open_image(file);
-            read_label_image(*in, 0, stack.width, stack.height, where, stack.slice(k).data(),
+            ImageFile in(file);
+            read_label_image(in, 0, stack.width, stack.height, where, stack.slice(k).data(),
                              report);
         }
         if (options.progress) {
@@ -449,11 +438,11 @@ SliceStack read_single_image(const fs::path& file, const ReadOptions& options, R
     if (is_tiff(file)) {
         return read_multipage_tiff(file, options, report);
     }
-    auto in = open_image(file);
+    ImageFile in(file);
     SliceStack stack;
     stack.source = file.string();
     stack.source_frame = "none";
-    const OIIO::ImageSpec& spec = in->spec();
+    const StrataImageSpec& spec = in.spec();
     if (spec.width <= 0 || spec.height <= 0) {
         throw Error(ErrorCode::InvalidInput,
                     file.string() + ": empty image, expected positive size");
@@ -464,7 +453,7 @@ SliceStack read_single_image(const fs::path& file, const ReadOptions& options, R
     check_stack_dimensions(stack.width, stack.height, 1, file.string(), options.max_bytes);
     check_image_holds(file, stack.slice_size());
     stack.labels.assign(stack.slice_size(), 0);
-    read_label_image(*in, 0, stack.width, stack.height, file.filename().string(),
+    read_label_image(in, 0, stack.width, stack.height, file.filename().string(),
                      stack.labels.data(), report);
     if (options.progress) {
         options.progress("slices", 1, 1);

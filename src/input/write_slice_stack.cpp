@@ -5,11 +5,11 @@
 #include <string>
 #include <system_error>
 
-#include <OpenImageIO/imageio.h>
 #include <nlohmann/json.hpp>
 
 #include "core/atomic_write.h"
 #include "core/error.h"
+#include "input/detail/image_files.h"
 
 namespace strata {
 
@@ -25,29 +25,19 @@ void write_png_atomically(const fs::path& file,
                           std::uint32_t height,
                           int channels,
                           bool sixteen_bit) {
-    // note: OpenImageIO picks the format by extension, so the temporary keeps ".png"
+    // note: the writer picks the format by extension, so the temporary keeps ".png"
     fs::path tmp = file;
     std::string tmp_name = file.stem().string();
     tmp_name.insert(tmp_name.begin(), '.');
     tmp_name += ".tmp.png";
     tmp.replace_filename(tmp_name);
-    auto out = OIIO::ImageOutput::create(tmp.string());
-    if (!out) {
-        throw Error(ErrorCode::Internal, "OpenImageIO has no PNG writer: " + OIIO::geterror());
-    }
-    const OIIO::TypeDesc type = sixteen_bit ? OIIO::TypeDesc::UINT16 : OIIO::TypeDesc::UINT8;
-    OIIO::ImageSpec spec(static_cast<int>(width), static_cast<int>(height), channels, type);
-    bool ok = out->open(tmp.string(), spec);
-    if (ok) {
-        ok = out->write_image(type, pixels);
-        ok = out->close() && ok;
-    }
-    std::error_code ec;
-    if (!ok) {
-        const std::string message = out->geterror();
+    std::string message;
+    if (!detail::write_png_file(tmp, pixels, width, height, channels, sixteen_bit, message)) {
+        std::error_code ec;
         fs::remove(tmp, ec);
         throw Error(ErrorCode::Io, file.string() + ": cannot write PNG: " + message);
     }
+    std::error_code ec;
     fs::rename(tmp, file, ec);
     if (ec) {
         std::error_code ignored;
