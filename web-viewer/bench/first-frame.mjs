@@ -4,7 +4,7 @@
 // page (index.html) in headless Chromium (Debian's chromium, software WebGL).
 //
 //   node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N]
-//        [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX]
+//        [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX] [--no-compress]
 //
 // OUT: a folder written by `strata build` (OUT/model.glb, the progressive model, and OUT/scene.glb,
 // the full-resolution plain glTF). --gltf: a folder written with `--model-format gltf` from the
@@ -16,9 +16,9 @@
 // Each variant runs in a fresh browser profile, on the same viewport and camera (the viewer's
 // fitted anterior view), the viewer's default tau (--tau PX), the default triangle budget, in two cache states
 // (--cache, default both):
-//   cold          nothing cached: the page, three.js (served as npm ships it: unminified and,
-//                 like the model, uncompressed), the Draco decoder and the model all come over
-//                 the emulated link;
+//   cold          nothing cached: the page, three.js (as npm ships it, unminified, sent
+//                 brotli-compressed by serve.mjs as a web server does; --no-compress: as they
+//                 are), the Draco decoder and the model all come over the emulated link;
 //   warm          a returning visitor: the page, its modules and the Draco decoder are in the
 //                 browser's cache (one visit of the page without a model before; the viewer's
 //                 files are served with max-age), the model is not;
@@ -42,7 +42,7 @@ import { chromiumMissing, launchChromium } from '../chromium.mjs';
 function usage(message) {
     if (message) console.error(`first-frame: ${message}`);
     console.error(
-        'usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX]',
+        'usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX] [--no-compress]',
     );
     process.exit(2);
 }
@@ -58,6 +58,7 @@ function parseArgs(args) {
         zoom: true,
         caches: ['cold', 'warm'],
         tau: null, // the viewer's default
+        compress: true, // serve.mjs compresses the viewer's files (never the models)
     };
     for (let i = 0; i < args.length; ++i) {
         const arg = args[i];
@@ -79,7 +80,8 @@ function parseArgs(args) {
         } else if (arg === '--tau') {
             options.tau = Number(args[++i]);
             if (!(options.tau > 0)) usage('--tau PX (> 0)');
-        } else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
+        } else if (arg === '--no-compress') options.compress = false;
+        else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
         else if (options.out === null) options.out = arg;
         else usage('one OUT folder');
     }
@@ -144,6 +146,13 @@ function breakdownInPage() {
         setup: mark('strata:setup-done'),
         shown: mark('strata:shown'),
         firstFrame: mark('strata:first-frame'),
+        // bytes of the viewer's own files over the link (0 from the cache), and uncompressed
+        pageBytes: resources
+            .filter((r) => !new URL(r.name).pathname.startsWith('/model/'))
+            .reduce((s, r) => s + r.transferSize, 0),
+        pageBodyBytes: resources
+            .filter((r) => !new URL(r.name).pathname.startsWith('/model/'))
+            .reduce((s, r) => s + r.decodedBodySize, 0),
     };
 }
 
@@ -287,8 +296,29 @@ async function main() {
                 `${dracoTriangles} triangles (${Math.round(performance.now() - t0)} ms)`,
         );
         variants.push({ label: 'single-rate Draco .glb', file: 'single-draco.glb', query: '&whole' });
-        const server = await startServer({ model: join(dir, 'model.glb'), port: 0, viewerMaxAge: 3600 });
+        const server = await startServer({
+            model: join(dir, 'model.glb'),
+            port: 0,
+            viewerMaxAge: 3600,
+            compress: options.compress,
+        });
         const base = server.url.replace(/\?.*$/, '');
+        {
+            // one visit of the page, unthrottled and not measured, so that the server has compressed
+            // the viewer's files before the first measured visit (as a static host stores them)
+            const browser = await launchChromium({ viewport: options.viewport });
+            try {
+                const page = await browser.context.newPage();
+                await page.goto(base);
+                await page.waitForFunction(
+                    () => performance.getEntriesByType('resource').some((r) => /draco_decoder\.wasm$/.test(r.name)),
+                    null,
+                    { timeout: 120000 },
+                );
+            } finally {
+                await browser.close();
+            }
+        }
         const results = [];
         try {
             for (let run = 0; run < options.runs; ++run) {
@@ -323,7 +353,8 @@ async function main() {
             : 'loopback, unthrottled';
         console.log(
             `model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
-                `tau ${options.tau ?? "the viewer's default"} px; Chromium software WebGL (SwiftShader)`,
+                `tau ${options.tau ?? "the viewer's default"} px; viewer files ${options.compress ? 'compressed (br)' : 'uncompressed'}; ` +
+                'Chromium software WebGL (SwiftShader)',
         );
         console.log(
             'variant                    | cache | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms',
@@ -346,12 +377,12 @@ async function main() {
                 'setup: the plugin ready; shown: the scene built; first frame drawn)',
         );
         console.log(
-            'variant                    | cache | three.js | decoder | modules | model req | model resp | decoded | setup | shown | 1st frame',
+            'variant                    | cache | page MB (unpacked) | three.js | decoder | modules | model req | model resp | decoded | setup | shown | 1st frame',
         );
         for (const r of results.filter((x) => !x.full)) {
             const t = r.steps;
             console.log(
-                `${r.label.padEnd(26)} | ${r.cache.padEnd(5)} | ${fmtMs(t.three).padStart(8)} | ${fmtMs(t.decoder).padStart(7)} | ` +
+                `${r.label.padEnd(26)} | ${r.cache.padEnd(5)} | ${`${fmtMB(t.pageBytes)} (${fmtMB(t.pageBodyBytes)})`.padStart(18)} | ${fmtMs(t.three).padStart(8)} | ${fmtMs(t.decoder).padStart(7)} | ` +
                     `${fmtMs(t.modules).padStart(7)} | ${fmtMs(t.modelRequest).padStart(9)} | ${fmtMs(t.modelResponse).padStart(10)} | ` +
                     `${fmtMs(t.decoded).padStart(7)} | ${fmtMs(t.setup).padStart(5)} | ${fmtMs(t.shown).padStart(5)} | ${fmtMs(t.firstFrame).padStart(9)}`,
             );

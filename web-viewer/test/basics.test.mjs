@@ -20,7 +20,9 @@ import {
     validateExtension,
 } from '../selection.js';
 import { coalesceRanges, glbLayout, parseGlb } from '../gltf-file.js';
-import { parseRange, startServer } from '../serve.mjs';
+import { parseRange, pickEncoding, startServer } from '../serve.mjs';
+import { request as httpRequest } from 'node:http';
+import { brotliDecompressSync, gunzipSync } from 'node:zlib';
 
 const kHere = dirname(fileURLToPath(import.meta.url));
 const kExample = join(kHere, '..', '..', 'schema', 'example.node.STRATA_progressive_mesh.json');
@@ -236,6 +238,71 @@ test('serve.mjs: ranges, MIME types, no way out of its folders', async () => {
             assert.equal(r.status, 405);
         } finally {
             await server.close();
+        }
+    } finally {
+        rmSync(dir, { recursive: true, force: true });
+    }
+});
+
+/// GET url with the given headers, the body as received (not decoded): { status, headers, body }.
+function rawGet(url, headers = {}) {
+    return new Promise((resolve, reject) => {
+        const req = httpRequest(url, { headers }, (res) => {
+            const parts = [];
+            res.on('data', (d) => parts.push(d));
+            res.on('end', () => resolve({ status: res.statusCode, headers: res.headers, body: Buffer.concat(parts) }));
+            res.on('error', reject);
+        });
+        req.on('error', reject);
+        req.end();
+    });
+}
+
+test('serve.mjs: the viewer files brotli- or gzip-compressed as the browser accepts, models as they are', async () => {
+    assert.equal(pickEncoding('gzip, deflate, br'), 'br');
+    assert.equal(pickEncoding('gzip;q=1.0, br;q=0'), 'gzip');
+    assert.equal(pickEncoding('identity'), null);
+    assert.equal(pickEncoding(undefined), null);
+    const dir = mkdtempSync(join(tmpdir(), 'strata-serve-test-'));
+    try {
+        const bytes = new Uint8Array(5000).map((_, i) => (i * 7) % 13);
+        writeFileSync(join(dir, 'model.glb'), bytes);
+        const viewer = join(kHere, '..');
+        const original = readFileSync(join(viewer, 'selection.js'));
+        const wasm = readFileSync(join(viewer, 'node_modules/three/examples/jsm/libs/draco/gltf/draco_decoder.wasm'));
+        for (const compress of [true, false]) {
+            const server = await startServer({ model: join(dir, 'model.glb'), port: 0, compress });
+            try {
+                const base = server.url.replace(/\?.*$/, '');
+                let r = await rawGet(`${base}selection.js`, { 'Accept-Encoding': 'gzip, br' });
+                assert.equal(r.status, 200);
+                if (compress) {
+                    assert.equal(r.headers['content-encoding'], 'br');
+                    assert.equal(r.headers.vary, 'Accept-Encoding');
+                    assert.equal(Number(r.headers['content-length']), r.body.length);
+                    assert.ok(r.body.length < original.length / 2, `${r.body.length} of ${original.length}`);
+                    assert.ok(brotliDecompressSync(r.body).equals(original));
+                } else {
+                    assert.equal(r.headers['content-encoding'], undefined);
+                    assert.ok(r.body.equals(original));
+                }
+                r = await rawGet(`${base}node_modules/three/examples/jsm/libs/draco/gltf/draco_decoder.wasm`, {
+                    'Accept-Encoding': 'gzip',
+                });
+                assert.equal(r.headers['content-type'], 'application/wasm');
+                assert.ok((compress ? gunzipSync(r.body) : r.body).equals(wasm));
+                assert.equal(r.headers['content-encoding'], compress ? 'gzip' : undefined);
+                r = await rawGet(`${base}selection.js`);
+                assert.equal(r.headers['content-encoding'], undefined);
+                assert.ok(r.body.equals(original));
+                // the model: never compressed, ranges as asked
+                r = await rawGet(`${base}model/model.glb`, { 'Accept-Encoding': 'br, gzip', Range: 'bytes=100-199' });
+                assert.equal(r.status, 206);
+                assert.equal(r.headers['content-encoding'], undefined);
+                assert.ok(r.body.equals(Buffer.from(bytes.subarray(100, 200))));
+            } finally {
+                await server.close();
+            }
         }
     } finally {
         rmSync(dir, { recursive: true, force: true });
