@@ -122,4 +122,11 @@ export class ByteCoverage {
         this.size += added;
         return added;
     }
+
+    /// The bytes of [start, end) of key already covered.
+    overlap(key, start, end) {
+        let covered = 0;
+        for (const [a, b] of this.files.get(key) ?? []) covered += Math.max(0, Math.min(b, end) - Math.max(a, start));
+        return covered;
+    }
 }

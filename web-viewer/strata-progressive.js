@@ -12,29 +12,35 @@
 //
 // GLTFLoader builds the base (the node's mesh: one Draco primitive holding every root cluster,
 // with _CLUSTER) as usual; the plugin then
-//   * reads each object's DAG table (strata-decode.js) and splits the base into one mesh per root
-//     cluster (one controller per object: strata.controllers);
+//   * reads each object's DAG table (strata-decode.js) and splits the base by root cluster (one
+//     controller per object: strata.controllers);
 //   * per update selects the cut (selection.js: screen-space error with the 3D Tiles formula,
-//     region of interest, frustum, triangle budget, chunks not loaded yet), shows and hides the
-//     cluster meshes, sets each cluster's geomorph weight, and computes smooth shading normals over
-//     the drawn cut of every object whose cut changed (welded at shared positions across clusters
-//     and levels, the definition of strata's C++ shading normals);
+//     region of interest, frustum, triangle budget, chunks not loaded yet), sets each drawn
+//     chunk's geomorph weight, computes smooth shading normals over the drawn cut of every object
+//     whose cut changed (welded at shared positions across clusters and levels, the definition of
+//     strata's C++ shading normals), and draws each object's cut as ONE mesh: one geometry per
+//     object holding the drawn clusters' triangles (rebuilt when its cut or normals change, its
+//     weights rewritten while it blends), one material per object, so that draw calls grow with
+//     the objects, not the clusters (FreeSurfer's 188 objects drew thousands of cluster meshes);
 //   * requests the chunks of the wanted groups by priority, a few HTTP range requests at a time
 //     (neighbouring chunks in one request), cancels requests no longer wanted, decodes chunks with
 //     GLTFLoader's DRACOLoader (Web Workers), resolves their geomorph slots, and unloads chunks
 //     that left the cut when the loaded triangles exceed a memory budget.
-// Geomorphs: every cluster mesh gets a clone of its object's material whose vertex shader draws
-// position + (_coarse_position - position) * w, with one uniform w per cluster: the weight of the
-// group that consumes it (1 at the refinement threshold, 0 from k * tau on), a short time blend
+// Geomorphs: each object's mesh has a clone of its material whose vertex shader draws
+// position + (_coarse_position - position) * w, with w a vertex attribute holding, for the points
+// of a chunk, the weight of the group that consumes the chunk's clusters (all of them are consumed
+// by that group; 1 at the refinement threshold, 0 from k * tau on), a short time blend
 // from 1 to 0 after a refinement the threshold did not announce (a chunk arriving late), and from
 // 0 to 1 before a coarsening the threshold did not announce (budget, frustum, a jump of the
 // camera): the consumed clusters stay drawn while they morph onto the produced ones. Root
-// clusters use the same program with _coarse_position = position, so shared vertices are
-// transformed by identical code in every cluster (invariant gl_Position).
+// clusters have _coarse_position = position and w = 0, so shared vertices are transformed by
+// identical code in every cluster (invariant gl_Position).
 import {
     Box3,
     BufferAttribute,
     BufferGeometry,
+    Color,
+    DynamicDrawUsage,
     Frustum,
     LoaderUtils,
     Matrix4,
@@ -65,16 +71,23 @@ import {
 
 const kDefaults = {
     concurrency: 4, // HTTP requests in flight
-    maxDecodes: 24, // chunks fetched or decoding at once (DRACOLoader's workers queue them)
+    // chunks fetched or decoding at once (DRACOLoader's workers queue them): 24 split the
+    // TotalSegmentator example's ~150 wanted chunks into ten rounds of requests
+    maxDecodes: 256,
     morph: true, // geomorphs
     morphK: 2, // w = clamp((k - sse / tau) / (k - 1), 0, 1)
     blendMs: 300, // time blend of a refinement or coarsening the threshold did not announce
     cull: true, // refine only groups whose sphere meets the view frustum
     normals: true, // shading normals over the drawn cut (false: the base's normals, chunks flat)
-    normalsMs: 8, // main-thread time per update for recomputing objects' normals (at least one object)
+    // main-thread time per update for recomputing objects' normals (at least one object), or 40 %
+    // of the time since the last update when frames are slower (a slow GPU leaves the main thread
+    // idle: 8 ms per 150 ms frame of software WebGL made normals the bottleneck of settling)
+    normalsMs: 8,
     normalsFullShare: 0.5, // recompute an object's normals over its whole cut when more of it changed
     prefetch: true, // request the chunks of the levels below a missing one at once (selectCut prefetch)
-    attachMs: 8, // main-thread time per update for attaching decoded chunks (at least one chunk)
+    // main-thread time per task for attaching decoded chunks (at least one chunk): tasks of their
+    // own, as chunks arrive, not one slice per frame (which tied loading to the frame rate)
+    attachMs: 8,
     memoryBudget: 4e6, // triangles of loaded chunks kept; beyond it, chunks off the cut are unloaded
     // merge chunk ranges of one buffer closer than this into one request: 4 kB, less than an
     // average chunk, so that merging saves requests without fetching many chunks the view does
@@ -155,25 +168,32 @@ class RangeFetcher {
 // ------------------------------------------------------------------------------------------------
 // geomorph material
 
-/// A clone of an object's material that morphs position towards _coarse_position by the uniform
-/// strataMorph (per clone, i.e. per cluster). All clones share one program.
+/// The name of the per-point geomorph weight attribute of the objects' draw geometries.
+const kMorphWeight = 'strataMorph';
+
+/// A clone of an object's material that morphs position towards _coarse_position by the per-point
+/// weight attribute strataMorph. All objects' clones share one program.
 function morphMaterial(base) {
     const material = base.clone();
-    const uniform = { value: 0 };
-    material.userData.strataMorph = uniform;
     material.userData.strataBaseColor = base.color?.clone();
     const coarse = kThreeAttributes.coarsePosition;
     material.onBeforeCompile = (shader) => {
-        shader.uniforms.strataMorph = uniform;
         shader.vertexShader =
-            `invariant gl_Position;\nattribute vec3 ${coarse};\nuniform float strataMorph;\n` +
+            `invariant gl_Position;\nattribute vec3 ${coarse};\nattribute float ${kMorphWeight};\n` +
             shader.vertexShader.replace(
                 '#include <begin_vertex>',
-                `vec3 transformed = position + ( ${coarse} - position ) * strataMorph;`,
+                `vec3 transformed = position + ( ${coarse} - position ) * ${kMorphWeight};`,
             );
     };
-    material.customProgramCacheKey = () => 'strata-morph-2';
+    material.customProgramCacheKey = () => 'strata-morph-3';
     return material;
+}
+
+/// Grows a capacity (elements) to hold at least n: powers of two from 1024.
+function capacityFor(n) {
+    let c = 1024;
+    while (c < n) c *= 2;
+    return c;
 }
 
 /// The attribute values of a (possibly interleaved) three.js attribute, one component per item.
@@ -246,7 +266,8 @@ class VertexTable {
 // ------------------------------------------------------------------------------------------------
 // one object
 
-/// The controller of one object node: its DAG, its cluster meshes and their state.
+/// The controller of one object node: its DAG, its loaded chunks and clusters, and the one mesh
+/// that draws its cut.
 export class StrataObjectController {
     /// table: parseDagTable's result; base: the GLTFLoader mesh of the node's mesh.
     constructor(plugin, nodeIndex, object, table, base, json) {
@@ -259,7 +280,11 @@ export class StrataObjectController {
         this.chunksView = json.nodes[nodeIndex].extensions[kExtension].chunks;
         this.material = base.material;
         const nc = table.clusters.length;
-        this.meshes = new Array(nc).fill(null); // cluster -> Mesh (null until loaded)
+        // cluster -> { chunk, range: [a, b) of chunk.index } (null until loaded); a chunk (the base,
+        // or one group's decoded chunk): { group (-1: the base), positions, coarse, normals (the
+        // shading normals of its points, object local frame), index (ordered by cluster), vertexOf
+        // (object vertex id per point), count (points) }
+        this.parts = new Array(nc).fill(null);
         // vertex ids of the object: one per distinct position (exact), across clusters and levels
         this.vertexIds = new VertexTable();
         this.vertexCount = 0;
@@ -272,6 +297,13 @@ export class StrataObjectController {
         this.positionsMm = new Float64Array(3 * 4096);
         object.updateMatrix();
         this.toMm = object.matrix.clone().setPosition(0, 0, 0); // local -> patient mm (linear part)
+        // the draw mesh (built by syncDraw): one geometry with the drawn clusters' points and
+        // triangles; drawChunks: the chunks in it, { chunk, first point, weight written }
+        this.drawMaterial = morphMaterial(this.material);
+        this.drawMesh = null;
+        this.drawChunks = [];
+        this.drawStale = true; // the drawn clusters or their normals changed: rebuild the geometry
+        this.weightsStale = false; // only the weights of drawn chunks changed
         const roots = [];
         for (let c = 0; c < nc; ++c) if (table.clusters[c].consumer === undefined) roots.push(c);
         const rootTriangles = this.splitBase(base, roots);
@@ -286,16 +318,19 @@ export class StrataObjectController {
         this.refinedAt = new Float64Array(this.dag.ng).fill(-Infinity);
         this.coarsenAt = new Float64Array(this.dag.ng).fill(-Infinity);
         this.coarsenFrom = new Float64Array(this.dag.ng);
-        this.drawn = [];
-        this.drawnKey = '';
+        this.shown = new Uint8Array(nc); // the clusters drawn (the cut, and clusters blending out)
+        this.drawn = roots;
+        this.drawnKey = roots.join(',');
         this.stats = { triangles: this.dag.baseTriangles, maxError: 0, maxErrorPx: 0 };
         this.opacity = 1;
         this.colorByLevel = false;
+        for (const c of roots) this.shown[c] = 1;
         this.updateNormals(roots);
+        this.syncDraw();
     }
 
-    /// Splits the base mesh (GLTFLoader's, one primitive) into one mesh per root cluster (by its
-    /// _CLUSTER values: root k in increasing cluster id); hides GLTFLoader's mesh. Returns the
+    /// Splits the base mesh (GLTFLoader's, one primitive) by root cluster (its _CLUSTER values:
+    /// root k in increasing cluster id) into the base chunk; hides GLTFLoader's mesh. Returns the
     /// triangles per root cluster.
     splitBase(base, roots) {
         const geometry = base.geometry;
@@ -314,10 +349,10 @@ export class StrataObjectController {
             : Uint32Array.from({ length: position.count }, (_, i) => i);
         const { order, start } = splitByCluster(index, clusterValues, roots.length, `${this.name} base`);
         const rootTriangles = new Map();
-        const shared = this.chunkGeometry(positions, positions, order);
+        const chunk = this.makeChunk(-1, positions, positions, order);
         roots.forEach((c, k) => {
             rootTriangles.set(c, (start[k + 1] - start[k]) / 3);
-            this.adopt(c, this.clusterMesh(shared, start[k], start[k + 1], c));
+            this.adopt(c, chunk, start[k], start[k + 1]);
         });
         // GLTFLoader's mesh stays in the scene graph (it may be the node itself) but draws nothing
         base.material = new MeshBasicMaterial({ visible: false });
@@ -326,11 +361,24 @@ export class StrataObjectController {
         const toScene = this.sceneMatrix();
         roots.forEach((c) => {
             if (this.table.clusters[c].sphere !== null) return;
-            const box = this.meshes[c].geometry.boundingBox.clone().applyMatrix4(toScene);
+            const box = this.partBox(c).applyMatrix4(toScene);
             const sphere = box.getBoundingSphere(new Sphere());
             this.table.clusters[c].sphere = [sphere.center.x, sphere.center.y, sphere.center.z, sphere.radius];
         });
         return rootTriangles;
+    }
+
+    /// The bounding box of cluster c's points, morph targets included (object local frame).
+    partBox(c) {
+        const { chunk, range } = this.parts[c];
+        const box = new Box3();
+        const v = new Vector3();
+        for (let i = range[0]; i < range[1]; ++i) {
+            const k = 3 * chunk.index[i];
+            box.expandByPoint(v.fromArray(chunk.positions, k));
+            box.expandByPoint(v.fromArray(chunk.coarse, k));
+        }
+        return box;
     }
 
     /// The matrix from the object's local frame to the glTF scene frame (the spheres' frame).
@@ -341,46 +389,19 @@ export class StrataObjectController {
         return toScene.multiply(this.object.matrixWorld);
     }
 
-    /// One geometry for a decoded chunk (or the base): positions, coarse positions, a normal
-    /// attribute (filled over the drawn cut), the index ordered by cluster, and per point its
-    /// object vertex id (userData.vertexOf).
-    chunkGeometry(positions, coarse, order) {
-        const geometry = new BufferGeometry();
-        geometry.setAttribute('position', new BufferAttribute(positions, 3));
-        geometry.setAttribute(kThreeAttributes.coarsePosition, new BufferAttribute(coarse, 3));
-        const normal = new BufferAttribute(new Float32Array(positions.length), 3);
-        geometry.setAttribute('normal', normal);
-        geometry.setIndex(new BufferAttribute(order, 1));
-        geometry.userData.vertexOf = this.vertexIdsOf(positions);
-        return geometry;
-    }
-
-    /// A mesh drawing indices [a, b) of a chunk geometry (cluster c): its own BufferGeometry that
-    /// shares the chunk's attributes and index, with a draw range and bounds that include the morph.
-    clusterMesh(chunk, a, b, c) {
-        const geometry = new BufferGeometry();
-        for (const [name, attribute] of Object.entries(chunk.attributes)) geometry.setAttribute(name, attribute);
-        geometry.setIndex(chunk.index);
-        geometry.setDrawRange(a, b - a);
-        geometry.userData = chunk.userData;
-        geometry.userData.range = [a, b];
-        const box = new Box3();
-        const p = chunk.getAttribute('position').array;
-        const q = chunk.getAttribute(kThreeAttributes.coarsePosition).array;
-        const index = chunk.index.array;
-        const v = new Vector3();
-        for (let i = a; i < b; ++i) {
-            const k = 3 * index[i];
-            box.expandByPoint(v.set(p[k], p[k + 1], p[k + 2]));
-            box.expandByPoint(v.set(q[k], q[k + 1], q[k + 2]));
-        }
-        geometry.boundingBox = box;
-        geometry.boundingSphere = box.getBoundingSphere(new Sphere());
-        const mesh = new Mesh(geometry, this.material);
-        mesh.name = `${this.name} cluster ${c}`;
-        mesh.userData.range = [a, b];
-        mesh.visible = false;
-        return mesh;
+    /// A decoded chunk (or the base): its points, their morph targets, their shading normals
+    /// (filled over the drawn cut), the index ordered by cluster, and per point its object vertex
+    /// id.
+    makeChunk(group, positions, coarse, order) {
+        return {
+            group,
+            positions,
+            coarse,
+            normals: new Float32Array(positions.length),
+            index: order,
+            vertexOf: this.vertexIdsOf(positions),
+            count: positions.length / 3,
+        };
     }
 
     /// Object vertex ids of a chunk's points (new positions get new ids, with their patient-mm
@@ -410,27 +431,21 @@ export class StrataObjectController {
         return out;
     }
 
-    /// Makes mesh the drawable of cluster c: its own morph material, userData for picking.
-    adopt(c, mesh) {
-        this.setBorder(c, mesh);
-        mesh.material = morphMaterial(this.material);
-        mesh.userData.strataCluster = c;
-        mesh.userData.strataObject = this;
-        if (this.opacity < 1) this.applyOpacity(mesh.material);
-        if (this.colorByLevel) this.applyLevelColor(c, mesh.material);
-        this.meshes[c] = mesh;
-        this.object.add(mesh);
+    /// Makes triangles [a, b) of chunk's index cluster c.
+    adopt(c, chunk, a, b) {
+        this.parts[c] = { chunk, range: [a, b] };
+        this.setBorder(c);
     }
 
-    /// Records the border vertices of cluster c's mesh (the ends of edges used by one of its
-    /// triangles only): two clusters of a drawn cut touch exactly at shared border vertices.
-    setBorder(c, mesh) {
-        const [a, b] = mesh.userData.range;
-        const index = mesh.geometry.index.array;
-        const vertexOf = mesh.geometry.userData.vertexOf;
+    /// Records the border vertices of cluster c (the ends of edges used by one of its triangles
+    /// only): two clusters of a drawn cut touch exactly at shared border vertices.
+    setBorder(c) {
+        const { chunk, range } = this.parts[c];
+        const index = chunk.index;
+        const vertexOf = chunk.vertexOf;
         const edges = new Map();
         const kShift = 2 ** 26; // object vertex ids below 2^26: the key is exact
-        for (let i = a; i < b; i += 3) {
+        for (let i = range[0]; i < range[1]; i += 3) {
             for (let k = 0; k < 3; ++k) {
                 const u = vertexOf[index[i + k]];
                 const v = vertexOf[index[i + ((k + 1) % 3)]];
@@ -470,12 +485,12 @@ export class StrataObjectController {
         const where = `${this.name} group ${g}`;
         const coarse = resolveSlots(decoded.positions, decoded.index, decoded.slot, where);
         const { order, start } = splitByCluster(decoded.index, decoded.cluster, group.consumed.length, where);
-        const chunk = this.chunkGeometry(decoded.positions, coarse, order);
+        const chunk = this.makeChunk(g, decoded.positions, coarse, order);
         group.consumed.forEach((c, k) => {
             const triangles = (start[k + 1] - start[k]) / 3;
             setClusterTriangles(this.dag, c, triangles);
             this.chunkTriangles += triangles;
-            this.adopt(c, this.clusterMesh(chunk, start[k], start[k + 1], c));
+            this.adopt(c, chunk, start[k], start[k + 1]);
         });
         // the chunk's own normals until the welded ones over the drawn cut are computed
         // (angle-weighted only: a cheap stand-in, replaced when the clusters are drawn)
@@ -483,32 +498,32 @@ export class StrataObjectController {
         this.groupState[g] = 2;
     }
 
-    /// Unloads the chunk of group g (its consumed clusters' meshes and GPU buffers).
+    /// Unloads the chunk of group g (its consumed clusters; none of them is drawn).
     evict(g) {
-        const group = this.dag.groups[g];
-        let chunk = null;
-        for (const c of group.consumed) {
-            const mesh = this.meshes[c];
-            if (mesh === null) continue;
-            this.object.remove(mesh);
+        for (const c of this.dag.groups[g].consumed) {
+            if (this.parts[c] === null) continue;
             this.dropBorder(c);
-            mesh.material.dispose();
-            mesh.geometry.dispose();
-            chunk = mesh.geometry;
             this.chunkTriangles -= this.dag.triangles[c];
-            this.meshes[c] = null;
+            this.parts[c] = null;
+            if (this.shown[c]) this.drawStale = true;
+            this.shown[c] = 0;
         }
-        if (chunk !== null) chunk.userData.vertexOf = null;
         this.groupState[g] = 0;
     }
 
     isLoaded(c) {
-        return this.meshes[c] !== null;
+        return this.parts[c] !== null;
     }
 
     /// Are some of group g's consumed clusters drawn (g refined, or blending out)?
     isDrawnRefined(g) {
-        return this.dag.groups[g].consumed.some((c) => this.meshes[c]?.visible);
+        return this.dag.groups[g].consumed.some((c) => this.shown[c] === 1);
+    }
+
+    /// The geomorph weight cluster c is drawn with (0 when not drawn).
+    clusterWeight(c) {
+        const g = this.dag.consumer[c];
+        return this.shown[c] && g >= 0 ? this.weight[g] : 0;
     }
 
     /// Selects, requests and shows this object alone (see StrataProgressivePlugin.update).
@@ -549,8 +564,6 @@ export class StrataObjectController {
         this.refined = cut.refined;
         this.priority = cut.priority;
         const drawn = shown.some((x, g) => x !== cut.refined[g]) ? drawnClusters(dag, shown) : cut.drawn;
-        const drawnSet = new Uint8Array(dag.nc);
-        for (const c of drawn) drawnSet[c] = 1;
         let changed = false;
         for (let g = 0; g < dag.ng; ++g) {
             let w = 0;
@@ -568,27 +581,151 @@ export class StrataObjectController {
             }
             this.weight[g] = w;
         }
-        for (let c = 0; c < dag.nc; ++c) {
-            const mesh = this.meshes[c];
-            if (mesh === null) continue;
-            const visible = drawnSet[c] === 1;
-            const g = dag.consumer[c];
-            const w = visible && g >= 0 ? this.weight[g] : 0;
-            const uniform = mesh.material.userData.strataMorph;
-            if (mesh.visible !== visible || (visible && uniform.value !== w)) changed = true;
-            mesh.visible = visible;
-            uniform.value = w;
-        }
         const key = drawn.join(',');
         if (key !== this.drawnKey) {
             // the welded normals are recomputed by the plugin within a time budget per update
             // (newly loaded clusters show their chunk's own normals until then)
             this.drawnKey = key;
             this.normalsDirtySince ??= now;
+            this.shown.fill(0);
+            for (const c of drawn) this.shown[c] = 1;
+            this.drawStale = true;
             changed = true;
         }
         this.drawn = drawn;
+        if (!this.drawStale) {
+            for (const entry of this.drawChunks) {
+                const g = entry.chunk.group;
+                if (g >= 0 && this.weight[g] !== entry.weight) {
+                    this.weightsStale = true;
+                    changed = true;
+                    break;
+                }
+            }
+        }
         return changed;
+    }
+
+    /// Brings the object's draw mesh up to date: the geometry rebuilt when the drawn clusters or
+    /// their normals changed (every drawn cluster's triangles, the points of their chunks), else
+    /// only the geomorph weights rewritten when they changed. One draw call per object.
+    syncDraw() {
+        if (this.drawStale) this.buildDraw();
+        else if (this.weightsStale) this.writeWeights();
+        this.drawStale = false;
+        this.weightsStale = false;
+    }
+
+    /// The draw geometry with room for `points` points and `indices` indices (kept while it is
+    /// large enough: its buffers are updated in place; else a new one replaces it).
+    drawGeometry(points, indices) {
+        const old = this.drawMesh?.geometry;
+        const keep = old && !this.newGeometry;
+        if (keep && old.userData.points >= points && old.userData.indices >= indices) return old;
+        this.newGeometry = false;
+        const p = capacityFor(Math.max(points, keep ? old.userData.points : 0));
+        const n = capacityFor(Math.max(indices, keep ? old.userData.indices : 0));
+        const geometry = new BufferGeometry();
+        const dynamic = (array, size) => new BufferAttribute(array, size).setUsage(DynamicDrawUsage);
+        geometry.setAttribute('position', dynamic(new Float32Array(3 * p), 3));
+        geometry.setAttribute(kThreeAttributes.coarsePosition, dynamic(new Float32Array(3 * p), 3));
+        geometry.setAttribute('normal', dynamic(new Float32Array(3 * p), 3));
+        geometry.setAttribute(kMorphWeight, dynamic(new Float32Array(p), 1));
+        if (this.colorByLevel) geometry.setAttribute('color', dynamic(new Float32Array(3 * p), 3));
+        geometry.setIndex(dynamic(new Uint32Array(n), 1));
+        geometry.userData.points = p;
+        geometry.userData.indices = n;
+        if (this.drawMesh === null) {
+            this.drawMesh = new Mesh(geometry, this.drawMaterial);
+            this.drawMesh.name = `${this.name} (strata cut)`;
+            this.drawMesh.userData.strataObject = this;
+            this.object.add(this.drawMesh);
+        } else {
+            this.drawMesh.geometry = geometry;
+            old.dispose();
+        }
+        return geometry;
+    }
+
+    /// Rebuilds the draw geometry from the drawn clusters (see syncDraw).
+    buildDraw() {
+        const byChunk = new Map(); // chunk -> drawn clusters in it
+        let points = 0;
+        let indices = 0;
+        for (const c of this.drawn) {
+            const part = this.parts[c];
+            if (part === null) continue;
+            let list = byChunk.get(part.chunk);
+            if (list === undefined) {
+                byChunk.set(part.chunk, (list = []));
+                points += part.chunk.count;
+            }
+            list.push(c);
+            indices += part.range[1] - part.range[0];
+        }
+        const geometry = this.drawGeometry(points, indices);
+        const position = geometry.getAttribute('position');
+        const coarse = geometry.getAttribute(kThreeAttributes.coarsePosition);
+        const normal = geometry.getAttribute('normal');
+        const color = this.colorByLevel ? geometry.getAttribute('color') : null;
+        const index = geometry.index.array;
+        this.drawChunks = [];
+        let first = 0;
+        let n = 0;
+        for (const [chunk, clusters] of byChunk) {
+            position.array.set(chunk.positions, 3 * first);
+            coarse.array.set(chunk.coarse, 3 * first);
+            normal.array.set(chunk.normals, 3 * first);
+            for (const c of clusters) {
+                const [a, b] = this.parts[c].range;
+                for (let i = a; i < b; ++i) index[n++] = chunk.index[i] + first;
+                if (color !== null) {
+                    const rgb = this.levelColor(c);
+                    for (let i = a; i < b; ++i) rgb.toArray(color.array, 3 * (chunk.index[i] + first));
+                }
+            }
+            this.drawChunks.push({ chunk, first, weight: NaN });
+            first += chunk.count;
+        }
+        this.writeWeights(false);
+        for (const attribute of [position, coarse, normal, color, geometry.getAttribute(kMorphWeight)]) {
+            if (attribute === null) continue;
+            attribute.clearUpdateRanges();
+            attribute.addUpdateRange(0, attribute.itemSize * first);
+            attribute.needsUpdate = true;
+        }
+        geometry.index.clearUpdateRanges();
+        geometry.index.addUpdateRange(0, n);
+        geometry.index.needsUpdate = true;
+        geometry.setDrawRange(0, n);
+        // bounds of the points drawn and their morph targets (frustum culling, picking)
+        const box = new Box3();
+        const v = new Vector3();
+        for (let i = 0; i < first; ++i) {
+            box.expandByPoint(v.fromArray(position.array, 3 * i));
+            box.expandByPoint(v.fromArray(coarse.array, 3 * i));
+        }
+        geometry.boundingBox = box;
+        geometry.boundingSphere = box.isEmpty() ? new Sphere() : box.getBoundingSphere(new Sphere());
+        this.drawMesh.visible = n > 0;
+    }
+
+    /// Writes the drawn chunks' geomorph weights (their consuming group's weight; 0 for the base).
+    writeWeights(upload = true) {
+        const attribute = this.drawMesh.geometry.getAttribute(kMorphWeight);
+        let end = 0;
+        for (const entry of this.drawChunks) {
+            const w = entry.chunk.group >= 0 ? this.weight[entry.chunk.group] : 0;
+            end = entry.first + entry.chunk.count;
+            if (w === entry.weight) continue;
+            attribute.array.fill(w, entry.first, end);
+            entry.weight = w;
+        }
+        if (upload) {
+            attribute.clearUpdateRanges();
+            attribute.addUpdateRange(0, end);
+            attribute.needsUpdate = true;
+        }
     }
 
     /// Brings the shading normals up to date with the drawn clusters (strata-decode.js
@@ -601,9 +738,9 @@ export class StrataObjectController {
     /// border vertex of a drawn cluster outside it); the whole cut when the context grows beyond
     /// options.normalsFullShare of it.
     updateNormals(drawn) {
-        const nc = this.meshes.length;
+        const nc = this.parts.length;
         const now = new Uint8Array(nc);
-        for (const c of drawn) if (this.meshes[c] !== null) now[c] = 1;
+        for (const c of drawn) if (this.parts[c] !== null) now[c] = 1;
         const previous = this.normalsCut;
         this.normalsCut = now;
         this.normalsDirtySince = null;
@@ -629,11 +766,8 @@ export class StrataObjectController {
             if (now[c] === previous[c]) continue;
             if (now[c]) {
                 add(c);
-                const mesh = this.meshes[c];
-                const [a, b] = mesh.userData.range;
-                const index = mesh.geometry.index.array;
-                const vertexOf = mesh.geometry.userData.vertexOf;
-                for (let i = a; i < b; ++i) seeds.push(vertexOf[index[i]]);
+                const { chunk, range } = this.parts[c];
+                for (let i = range[0]; i < range[1]; ++i) seeds.push(chunk.vertexOf[chunk.index[i]]);
             } else {
                 for (const v of this.border[c] ?? []) seeds.push(v);
             }
@@ -651,12 +785,9 @@ export class StrataObjectController {
             const ids = [];
             const triangles = [];
             for (const c of clusters) {
-                const mesh = this.meshes[c];
-                const [a, b] = mesh.userData.range;
-                const index = mesh.geometry.index.array;
-                const vertexOf = mesh.geometry.userData.vertexOf;
-                for (let i = a; i < b; ++i) {
-                    const v = vertexOf[index[i]];
+                const { chunk, range } = this.parts[c];
+                for (let i = range[0]; i < range[1]; ++i) {
+                    const v = chunk.vertexOf[chunk.index[i]];
                     if (local[v] < 0) {
                         local[v] = ids.length;
                         ids.push(v);
@@ -716,8 +847,8 @@ export class StrataObjectController {
         const drawn = clusters;
         let count = 0;
         for (const c of drawn) {
-            const mesh = this.meshes[c];
-            if (mesh !== null) count += mesh.userData.range[1] - mesh.userData.range[0];
+            const part = this.parts[c];
+            if (part !== null) count += part.range[1] - part.range[0];
         }
         // the vertices used, renumbered 0 .. used - 1
         const local = new Int32Array(this.vertexCount).fill(-1);
@@ -725,12 +856,10 @@ export class StrataObjectController {
         const triangles = new Uint32Array(count);
         let n = 0;
         for (const c of drawn) {
-            const mesh = this.meshes[c];
-            if (mesh === null) continue;
-            const [a, b] = mesh.userData.range;
-            const index = mesh.geometry.index.array;
-            const vertexOf = mesh.geometry.userData.vertexOf;
-            for (let i = a; i < b; ++i) {
+            const part = this.parts[c];
+            if (part === null) continue;
+            const { index, vertexOf } = part.chunk;
+            for (let i = part.range[0]; i < part.range[1]; ++i) {
                 const v = vertexOf[index[i]];
                 if (local[v] < 0) {
                     local[v] = positions.length / 3;
@@ -742,16 +871,12 @@ export class StrataObjectController {
         const normalsMm = shadingNormals(Float64Array.from(positions), triangles, positions.length / 3, rings);
         // mm -> local: n_local ~ M^T n_mm (three.js then applies the normal matrix, inverse transpose of M)
         const e = this.toMm.elements;
-        const touched = new Set();
         for (const c of drawn) {
-            const mesh = this.meshes[c];
-            if (mesh === null || (write !== null && !write[c])) continue;
-            const [a, b] = mesh.userData.range;
-            const index = mesh.geometry.index.array;
-            const vertexOf = mesh.geometry.userData.vertexOf;
-            const normal = mesh.geometry.getAttribute('normal');
-            const out = normal.array;
-            for (let i = a; i < b; ++i) {
+            const part = this.parts[c];
+            if (part === null || (write !== null && !write[c])) continue;
+            const { index, vertexOf, normals: out } = part.chunk;
+            if (this.shown[c]) this.drawStale = true; // the draw geometry holds a copy
+            for (let i = part.range[0]; i < part.range[1]; ++i) {
                 const p = index[i];
                 if (writeVertex !== null && !writeVertex[vertexOf[p]]) continue;
                 const v = local[vertexOf[p]];
@@ -766,9 +891,7 @@ export class StrataObjectController {
                 out[3 * p + 1] = ly / l;
                 out[3 * p + 2] = lz / l;
             }
-            touched.add(normal);
         }
-        for (const normal of touched) normal.needsUpdate = true;
     }
 
     /// True while some drawn cluster is morphing by time (an app rendering on demand keeps going).
@@ -783,32 +906,32 @@ export class StrataObjectController {
     setOpacity(opacity) {
         this.opacity = opacity;
         this.plugin.changed = true;
-        for (const mesh of this.meshes) if (mesh) this.applyOpacity(mesh.material);
-    }
-
-    applyOpacity(material) {
-        material.opacity = this.opacity;
-        material.transparent = this.opacity < 1;
-        material.depthWrite = this.opacity >= 1;
+        const material = this.drawMaterial;
+        material.opacity = opacity;
+        material.transparent = opacity < 1;
+        material.depthWrite = opacity >= 1;
         material.needsUpdate = true;
     }
 
-    /// Debug colouring: each cluster by its level (0 = full resolution: blue ... coarse: red).
+    /// Debug colouring: each cluster by its level (0 = full resolution: blue ... coarse: red), as
+    /// a colour per point of the draw geometry.
     setColorByLevel(on) {
+        if (this.colorByLevel === on) return;
         this.colorByLevel = on;
         this.plugin.changed = true;
-        this.meshes.forEach((mesh, c) => mesh && this.applyLevelColor(c, mesh.material));
+        const material = this.drawMaterial;
+        material.vertexColors = on;
+        if (material.color) material.color.copy(on ? new Color(1, 1, 1) : material.userData.strataBaseColor);
+        material.needsUpdate = true;
+        // a new geometry, with or without the colour attribute
+        this.newGeometry = true;
+        if (this.drawMesh !== null) this.buildDraw();
     }
 
-    applyLevelColor(c, material) {
-        if (!material.color) return;
-        if (!this.colorByLevel) {
-            material.color.copy(material.userData.strataBaseColor);
-            return;
-        }
+    levelColor(c) {
         this.maxLevel ??= this.table.clusters.reduce((m, k) => Math.max(m, k.level), 1);
         const level = this.table.clusters[c].level;
-        material.color.setHSL(0.66 * (1 - level / this.maxLevel), 0.8, 0.5 + 0.1 * (((c * 7) % 3) - 1));
+        return new Color().setHSL(0.66 * (1 - level / this.maxLevel), 0.8, 0.5 + 0.1 * (((c * 7) % 3) - 1));
     }
 }
 
@@ -835,10 +958,11 @@ export class StrataProgressivePlugin {
             cancelled: 0,
             evicted: 0,
             decodeWaitMs: 0, // summed time chunks waited for the Draco workers
-            attachMs: 0, // main-thread time spent resolving slots and building cluster meshes
+            attachMs: 0, // main-thread time spent resolving slots and splitting chunks by cluster
             normalsFull: 0, // normals computed over a whole drawn cut
             normalsIncremental: 0, // ... over the part of it that changed
             normalsTimeMs: 0, // main-thread time spent on normals
+            drawBuildMs: 0, // main-thread time spent filling the objects' draw geometries
         };
         this.fetcher = new RangeFetcher(
             this.options.fetch ?? globalThis.fetch.bind(globalThis),
@@ -848,6 +972,10 @@ export class StrataProgressivePlugin {
         this.controllers = [];
         this.controllerOf = new Map(); // node index -> controller
         this.viewBytes = new Map(); // bufferView index -> ArrayBuffer fetched ahead (ranges)
+        // bytes of each buffer (key: buffer index) requested so far (the prefix, the base, chunk
+        // requests), in buffer coordinates: a coalesced request never spans bytes requested before
+        this.requested = new ByteCoverage();
+        this.baseRanges = []; // the base's fetched ranges { buffer, start, end, bytes }, stashed after setup
         this.stashed = new Map(); // "node/group" -> ArrayBuffer of a chunk that came in a fetched range
         this.queue = []; // wanted chunks of the last update, best first: { controller, group, priority }
         this.batches = new Set(); // fetches in flight: { items, abort, fetched }
@@ -885,9 +1013,14 @@ export class StrataProgressivePlugin {
             4096,
         );
         mark('strata:base-request');
+        const { prefix, binOffset } = this.options.source;
+        if (prefix) this.requested.add(0, 0, Math.max(0, prefix.byteLength - binOffset));
+        for (const range of ranges) this.requested.add(0, range.start, range.end);
         return Promise.all(
             ranges.map(async (range) => {
                 const bytes = await this.glbRange(range.start, range.end);
+                // chunks in the gaps between the base's views are kept once the DAGs are read
+                this.baseRanges.push({ buffer: 0, start: range.start, end: range.end, bytes, items: [] });
                 for (const v of range.views) {
                     const def = json.bufferViews[v];
                     const start = (def.byteOffset ?? 0) - range.start;
@@ -936,7 +1069,7 @@ export class StrataProgressivePlugin {
 
     /// GLTFLoader has built the scene (the base meshes, drawable as they are: Draco-decoded with
     /// their shading normals). With options.deferSetup the plugin's own setup (DAG tables, the
-    /// base split into cluster meshes, welded normals) waits for the second update, so that the
+    /// base split by cluster, welded normals, one draw mesh per object) waits for the second update, so that the
     /// first frame shows the base without waiting for it; strata.ready resolves after it.
     async afterRoot(result) {
         mark('strata:after-root');
@@ -1007,6 +1140,8 @@ export class StrataProgressivePlugin {
                 console.warn(`${kExtension}: node ${nodeIndex} uses its base mesh only: ${error.message ?? error}`);
             }
         }
+        for (const range of this.baseRanges) this.stash(range, range.bytes);
+        this.baseRanges = [];
         this.stats.setupMs = performance.now() - setupStart;
         mark('strata:setup-done');
     }
@@ -1096,6 +1231,8 @@ export class StrataProgressivePlugin {
         }
         this.lastKey = key;
         const now = performance.now();
+        const previousUpdate = this.lastUpdateAt;
+        this.lastUpdateAt = now;
         const controllers = (options.controllers ?? this.controllers).filter(
             (c) => c.object.visible && isShown(c.object),
         );
@@ -1138,8 +1275,9 @@ export class StrataProgressivePlugin {
         if (this.options.normals) {
             const dirty = controllers.filter((c) => c.normalsDirtySince != null);
             dirty.sort((a, b) => a.normalsDirtySince - b.normalsDirtySince);
-            const deadline = performance.now() + this.options.normalsMs;
             const t0 = performance.now();
+            const sinceLast = previousUpdate === undefined ? 0 : t0 - previousUpdate;
+            const deadline = t0 + Math.min(100, Math.max(this.options.normalsMs, 0.4 * sinceLast));
             for (const [i, controller] of dirty.entries()) {
                 if (i > 0 && performance.now() > deadline) break;
                 controller.updateNormals(controller.drawn);
@@ -1147,6 +1285,10 @@ export class StrataProgressivePlugin {
             }
             this.stats.normalsTimeMs += performance.now() - t0;
         }
+        // each object's cut as one mesh (rebuilt where the cut or its normals changed)
+        const d0 = performance.now();
+        for (const controller of controllers) controller.syncDraw();
+        this.stats.drawBuildMs += performance.now() - d0;
         // wanted groups (a cluster is wanted when its consumer's chunk is missing), best first
         const seen = new Set();
         this.queue = [];
@@ -1207,6 +1349,7 @@ export class StrataProgressivePlugin {
     /// at most `maxDecodes` chunks fetched but not yet decoded and attached. Wanted chunks of one
     /// buffer close to the best one (within maxRangeGap) come in the same request.
     pump() {
+        const deferred = []; // chunks inside a request in flight: stashed when it arrives
         while (this.queue.length > 0 && this.decoding < this.options.maxDecodes) {
             const first = this.queue[0];
             if (first.controller.groupState[first.group] !== 0) {
@@ -1216,6 +1359,10 @@ export class StrataProgressivePlugin {
             const range = this.chunkRange(first.controller, first.group);
             const ranged =
                 this.isRanged(range.buffer) && !this.stashed.has(`${first.controller.nodeIndex}/${first.group}`);
+            if (ranged && this.inFlightCovers(range)) {
+                deferred.push(this.queue.shift());
+                continue;
+            }
             if (ranged && this.requests >= this.options.concurrency) break;
             this.queue.shift();
             const items = [{ ...first, range }];
@@ -1235,7 +1382,11 @@ export class StrataProgressivePlugin {
                         r.buffer !== range.buffer ||
                         r.start - hi > this.options.maxRangeGap ||
                         lo - r.end > this.options.maxRangeGap ||
-                        Math.max(hi, r.end) - Math.min(lo, r.start) > this.options.maxRangeBytes
+                        Math.max(hi, r.end) - Math.min(lo, r.start) > this.options.maxRangeBytes ||
+                        // the gap it adds holds no byte requested before (fetched twice otherwise)
+                        (r.start > hi && this.requested.overlap(range.buffer, hi, r.start) > 0) ||
+                        (r.end < lo && this.requested.overlap(range.buffer, r.end, lo) > 0) ||
+                        this.inFlightCovers(r)
                     ) {
                         continue;
                     }
@@ -1246,9 +1397,21 @@ export class StrataProgressivePlugin {
                 }
             }
             for (const w of items) w.controller.groupState[w.group] = 1;
+            if (ranged) this.requested.add(range.buffer, lo, hi);
             this.decoding += items.length;
             this.loadBatch({ items, buffer: range.buffer, start: lo, end: hi, ranged });
         }
+        if (deferred.length > 0) this.queue.unshift(...deferred);
+    }
+
+    /// Does a request in flight hold the bytes of range (a chunk in its gaps)?
+    inFlightCovers(range) {
+        for (const batch of this.batches) {
+            if (!batch.fetched && batch.ranged && batch.buffer === range.buffer) {
+                if (batch.start <= range.start && range.end <= batch.end) return true;
+            }
+        }
+        return false;
     }
 
     /// Chunks being fetched or decoded.
@@ -1319,7 +1482,15 @@ export class StrataProgressivePlugin {
     async loadBatch(batch) {
         const json = this.parser.json;
         const abort = typeof AbortController === 'function' ? new AbortController() : null;
-        const entry = { items: batch.items, controller: abort, fetched: false };
+        const entry = {
+            items: batch.items,
+            controller: abort,
+            fetched: false,
+            ranged: batch.ranged,
+            buffer: batch.buffer,
+            start: batch.start,
+            end: batch.end,
+        };
         this.batches.add(entry);
         if (batch.ranged) ++this.requests;
         let bytes;
@@ -1374,8 +1545,9 @@ export class StrataProgressivePlugin {
                     const decoded = await this.decodeChunk(chunk);
                     this.stats.decodeWaitMs += performance.now() - d0;
                     if (controller.groupState[group] !== 1) return; // unloaded meanwhile
-                    // attached by the next update, within its time budget (attachArrived)
+                    // attached by a task of its own or the next update, within a time budget (attachArrived)
                     this.arrived.push({ controller, group, decoded });
+                    this.scheduleAttach();
                     queued = true;
                     this.changed = true;
                     this.options.onChange?.(controller, group);
@@ -1394,7 +1566,19 @@ export class StrataProgressivePlugin {
         );
     }
 
-    /// Attaches decoded chunks (slots resolved, cluster meshes built, their own normals) for at
+    /// Attaches arrived chunks in tasks of their own (attachMs each, yielding in between), until
+    /// none is left.
+    scheduleAttach() {
+        if (this.attachScheduled) return;
+        this.attachScheduled = true;
+        setTimeout(() => {
+            this.attachScheduled = false;
+            this.attachArrived();
+            if (this.arrived.length > 0) this.scheduleAttach();
+        }, 0);
+    }
+
+    /// Attaches decoded chunks (slots resolved, split by cluster, their own normals) for at
     /// most options.attachMs of main-thread time (at least one chunk), so that a frame never
     /// waits for a whole burst of arrivals.
     attachArrived() {
@@ -1467,12 +1651,13 @@ export class StrataProgressivePlugin {
         return box.getBoundingSphere(new Sphere());
     }
 
-    /// The meshes drawn now (for picking).
+    /// The meshes drawn now (for picking): one per shown object; userData.strataObject is its
+    /// controller.
     drawnMeshes() {
         const out = [];
         for (const controller of this.controllers) {
-            if (!controller.object.visible) continue;
-            for (const c of controller.drawn) if (controller.meshes[c]) out.push(controller.meshes[c]);
+            if (!isShown(controller.object) || !controller.drawMesh?.visible) continue;
+            out.push(controller.drawMesh);
         }
         return out;
     }

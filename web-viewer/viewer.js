@@ -603,6 +603,7 @@ window.strataViewer = {
             loaded: gltf !== null,
             triangles: strata ? (last?.triangles ?? 0) : renderer.info.render.triangles,
             rendererTriangles: renderer.info.render.triangles,
+            drawCalls: renderer.info.render.calls,
             bytesLoaded: s.bytesLoaded ?? 0,
             bytesTotal: s.bytesTotal ?? 0,
             requests: s.requests ?? 0,
@@ -705,7 +706,7 @@ window.strataViewer = {
         let max = 0;
         for (const controller of strata?.controllers ?? []) {
             for (const c of controller.drawn) {
-                const w = controller.meshes[c]?.material.userData.strataMorph?.value ?? 0;
+                const w = controller.clusterWeight(c);
                 ++count;
                 if (w > 0 && w < 1) ++morphing;
                 max = Math.max(max, w);

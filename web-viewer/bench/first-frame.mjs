@@ -202,6 +202,14 @@ async function measure(url, options, label, { cache, base }) {
             };
         });
         first.steps = await page.evaluate(breakdownInPage);
+        // draw calls and main-thread ms of one frame of the settled view (redrawn: the next frame
+        // draws the same picture again)
+        first.drawCalls = await page.evaluate(async () => {
+            const v = window.strataViewer;
+            v.redraw();
+            await v.nextFrame();
+            return v.renderer.info.render.calls;
+        });
         // zoom in
         const zoom = !options.zoom
             ? { ms: null, bytes: 0, requests: 0, stamps: [], ticks: [], state: { triangles: null } }
@@ -239,6 +247,7 @@ async function measure(url, options, label, { cache, base }) {
             refiningFrames: quantiles(intervals(first.stamps)),
             loadTicks: quantiles(first.ticks),
             maxErrorPx: first.state.maxErrorPx,
+            drawCalls: first.drawCalls,
             maxErrorMm: first.state.maxErrorMm,
             zoom: {
                 ms: zoom.ms,
@@ -357,14 +366,14 @@ async function main() {
                 'Chromium software WebGL (SwiftShader)',
         );
         console.log(
-            'variant                    | cache | file MB | 1st frame ms | MB at 1st | tris at rest | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms',
+            'variant                    | cache | file MB | 1st frame ms | MB at 1st | tris at rest | draw calls | refined ms | MB refined | redraw ms med/p95/max (n) | zoom in: ms, MB, tris | redraw ms med/p95/max (n) | longest frame gap ms',
         );
         for (const r of results) {
             const f = r.refiningFrames;
             const z = r.zoom;
             console.log(
                 `${r.label.padEnd(26)} | ${r.cache.padEnd(5)} | ${fmtMB(r.fileBytes).padStart(7)} | ${fmtMs(r.firstFrameMs).padStart(12)} | ` +
-                    `${fmtMB(r.firstFrameBytes).padStart(9)} | ${String(r.triangles).padStart(12)} | ${fmtMs(r.refinedMs).padStart(10)} | ` +
+                    `${fmtMB(r.firstFrameBytes).padStart(9)} | ${String(r.triangles).padStart(12)} | ${String(r.drawCalls).padStart(10)} | ${fmtMs(r.refinedMs).padStart(10)} | ` +
                     `${fmtMB(r.refinedBytes).padStart(10)} | ${fmtMs(f.median)}/${fmtMs(f.p95)}/${fmtMs(f.max)} (${f.n}) | ` +
                     `${fmtMs(z.ms)}, ${fmtMB(z.bytes)}, ${z.triangles} | ${fmtMs(z.frames.median)}/${fmtMs(z.frames.p95)}/${fmtMs(z.frames.max)} (${z.frames.n}) | ` +
                     `${fmtMs(Math.max(r.loadTicks.max ?? 0, z.ticks.max ?? 0))}` +

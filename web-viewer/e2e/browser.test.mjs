@@ -56,32 +56,57 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
             assert.ok(percent !== null && Number(percent[1]) <= 100, `the HUD says: ${s.hud}`);
             return s;
         };
-        // the plugin's incremental normals against a recomputation over the whole drawn cut
-        // (computeNormals overwrites them: the next check compares with this state again)
+        // the plugin's incremental normals, as drawn (each object's one draw geometry: what the GPU
+        // got), against a recomputation over the whole drawn cut; and the draw geometry holds the
+        // drawn clusters' triangles, no others (computeNormals overwrites the normals: the next
+        // check compares with this state again)
         let normalsChecked = 0;
         let normalsIncremental = 0;
         const checkNormals = async (when) => {
             const r = await hook(() => {
                 let worst = 0;
                 let compared = 0;
+                const problems = [];
                 for (const c of window.strataViewer.strata.controllers) {
-                    const before = new Map();
-                    for (const k of c.drawn) before.set(k, c.meshes[k].geometry.getAttribute('normal').array.slice());
+                    const geometry = c.drawMesh.geometry;
+                    const drawnIndex = geometry.index.array.subarray(0, geometry.drawRange.count);
+                    const drawnPosition = geometry.getAttribute('position').array;
+                    const drawnNormal = geometry.getAttribute('normal').array;
                     c.computeNormals(c.drawn, null);
+                    // the drawn clusters' triangles in order, as points (x, y, z) with their fresh normals
+                    let n = 0;
                     for (const k of c.drawn) {
-                        const mesh = c.meshes[k];
-                        const a = before.get(k);
-                        const b = mesh.geometry.getAttribute('normal').array;
-                        const index = mesh.geometry.index.array;
-                        for (let i = mesh.userData.range[0]; i < mesh.userData.range[1]; ++i) {
-                            const p = 3 * index[i];
-                            worst = Math.max(worst, Math.hypot(a[p] - b[p], a[p + 1] - b[p + 1], a[p + 2] - b[p + 2]));
+                        const { chunk, range } = c.parts[k];
+                        for (let i = range[0]; i < range[1]; ++i, ++n) {
+                            const p = 3 * chunk.index[i];
+                            const q = 3 * drawnIndex[n];
+                            const a = chunk.positions;
+                            if (
+                                a[p] !== drawnPosition[q] ||
+                                a[p + 1] !== drawnPosition[q + 1] ||
+                                a[p + 2] !== drawnPosition[q + 2]
+                            ) {
+                                problems.push(`${c.name}: point ${n} of the draw geometry is not cluster ${k}'s`);
+                                break;
+                            }
+                            const b = chunk.normals;
+                            worst = Math.max(
+                                worst,
+                                Math.hypot(
+                                    b[p] - drawnNormal[q],
+                                    b[p + 1] - drawnNormal[q + 1],
+                                    b[p + 2] - drawnNormal[q + 2],
+                                ),
+                            );
                             ++compared;
                         }
                     }
+                    if (n !== drawnIndex.length)
+                        problems.push(`${c.name}: ${drawnIndex.length} indices drawn, the cut has ${n}`);
                 }
-                return { worst, compared, incremental: window.strataViewer.strata.stats.normalsIncremental };
+                return { worst, compared, problems, incremental: window.strataViewer.strata.stats.normalsIncremental };
             });
+            assert.deepEqual(r.problems.slice(0, 5), [], `${when}: the draw geometries are not the cut`);
             normalsChecked += r.compared;
             normalsIncremental = r.incremental;
             assert.ok(r.worst < 1e-5, `${when}: the normals differ by ${r.worst} from a recomputation over the cut`);
@@ -382,11 +407,11 @@ test(
             assert.ok(coarse.triangles < before.triangles, 'the smaller budget did not coarsen');
             assert.ok(morphing > 0 && extra > 0, 'the coarsening did not blend');
             await hook((ms) => (window.strataViewer.strata.options.blendMs = ms), blendMs);
-            // the meshes shown are the cut's clusters alone (three.js may cull those outside the
+            // the draw geometries hold the cut's clusters alone (three.js may cull objects outside the
             // view: the renderer draws at most that many)
             const shownTriangles = await hook(() =>
                 window.strataViewer.strata.controllers.reduce(
-                    (sum, c) => sum + c.meshes.reduce((n, mesh, k) => n + (mesh?.visible ? c.dag.triangles[k] : 0), 0),
+                    (sum, c) => sum + (c.drawMesh.visible ? c.drawMesh.geometry.drawRange.count / 3 : 0),
                     0,
                 ),
             );

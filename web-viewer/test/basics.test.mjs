@@ -19,7 +19,7 @@ import {
     selectCut,
     validateExtension,
 } from '../selection.js';
-import { coalesceRanges, glbLayout, parseGlb } from '../gltf-file.js';
+import { ByteCoverage, coalesceRanges, glbLayout, parseGlb } from '../gltf-file.js';
 import { parseRange, pickEncoding, startServer } from '../serve.mjs';
 import { request as httpRequest } from 'node:http';
 import { brotliDecompressSync, gunzipSync } from 'node:zlib';
@@ -183,6 +183,32 @@ test('GLB layout and range coalescing', () => {
             [1, 0, 4, [3]],
         ],
     );
+});
+
+test('ByteCoverage: distinct bytes and the overlap of a range, against a byte map', () => {
+    // random ranges over two files; a Uint8Array per file marks the bytes added (the reference)
+    let seed = 7;
+    const random = (n) => ((seed = (seed * 1103515245 + 12345) % 2 ** 31), seed % n);
+    const coverage = new ByteCoverage();
+    const marked = { a: new Uint8Array(300), b: new Uint8Array(300) };
+    for (let i = 0; i < 200; ++i) {
+        const key = random(2) ? 'a' : 'b';
+        const start = random(300);
+        const end = Math.min(300, start + random(40));
+        const before = marked[key].reduce((s, x) => s + x, 0);
+        marked[key].fill(1, start, end);
+        const added = coverage.add(key, start, end);
+        assert.equal(added, marked[key].reduce((s, x) => s + x, 0) - before);
+        const qs = random(300);
+        const qe = Math.min(300, qs + random(60));
+        const other = random(2) ? 'a' : 'b';
+        assert.equal(
+            coverage.overlap(other, qs, qe),
+            marked[other].subarray(qs, qe).reduce((s, x) => s + x, 0),
+        );
+    }
+    assert.equal(coverage.size, marked.a.reduce((s, x) => s + x, 0) + marked.b.reduce((s, x) => s + x, 0));
+    assert.equal(coverage.overlap('c', 0, 100), 0);
 });
 
 test('serve.mjs: ranges, MIME types, no way out of its folders', async () => {
