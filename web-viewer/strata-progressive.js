@@ -302,7 +302,8 @@ export class StrataObjectController {
         this.drawMaterial = morphMaterial(this.material);
         this.drawMesh = null;
         this.drawChunks = [];
-        this.drawStale = true; // the drawn clusters or their normals changed: rebuild the geometry
+        this.drawStale = true; // the drawn clusters changed: rebuild the geometry
+        this.normalsStale = false; // only the normals of drawn clusters changed
         this.weightsStale = false; // only the weights of drawn chunks changed
         const roots = [];
         for (let c = 0; c < nc; ++c) if (table.clusters[c].consumer === undefined) roots.push(c);
@@ -610,10 +611,29 @@ export class StrataObjectController {
     /// their normals changed (every drawn cluster's triangles, the points of their chunks), else
     /// only the geomorph weights rewritten when they changed. One draw call per object.
     syncDraw() {
-        if (this.drawStale) this.buildDraw();
-        else if (this.weightsStale) this.writeWeights();
+        if (this.drawStale) {
+            this.buildDraw();
+        } else {
+            if (this.normalsStale) this.writeNormals();
+            if (this.weightsStale) this.writeWeights();
+        }
         this.drawStale = false;
+        this.normalsStale = false;
         this.weightsStale = false;
+    }
+
+    /// Copies the drawn chunks' normals into the draw geometry (their points are where buildDraw
+    /// put them) and uploads them.
+    writeNormals() {
+        const attribute = this.drawMesh.geometry.getAttribute('normal');
+        let end = 0;
+        for (const { chunk, first } of this.drawChunks) {
+            attribute.array.set(chunk.normals, 3 * first);
+            end = first + chunk.count;
+        }
+        attribute.clearUpdateRanges();
+        attribute.addUpdateRange(0, 3 * end);
+        attribute.needsUpdate = true;
     }
 
     /// The draw geometry with room for `points` points and `indices` indices (kept while it is
@@ -875,7 +895,7 @@ export class StrataObjectController {
             const part = this.parts[c];
             if (part === null || (write !== null && !write[c])) continue;
             const { index, vertexOf, normals: out } = part.chunk;
-            if (this.shown[c]) this.drawStale = true; // the draw geometry holds a copy
+            if (this.shown[c]) this.normalsStale = true; // the draw geometry holds a copy
             for (let i = part.range[0]; i < part.range[1]; ++i) {
                 const p = index[i];
                 if (writeVertex !== null && !writeVertex[vertexOf[p]]) continue;
@@ -1271,9 +1291,13 @@ export class StrataProgressivePlugin {
             }
         });
         // welded normals of the objects whose drawn cut changed, oldest first, within normalsMs
-        // (at least one object per update)
+        // (at least one object per update), once an object has no chunk on its way: an object
+        // refines level after level as its chunks arrive, and its normals were computed again
+        // after each (FreeSurfer: 502 computations over whole objects for 188 objects, 5.9 s)
         if (this.options.normals) {
-            const dirty = controllers.filter((c) => c.normalsDirtySince != null);
+            const loading = new Set(this.queue.map((w) => w.controller));
+            for (const c of controllers) if (c.groupState.includes(1)) loading.add(c);
+            const dirty = controllers.filter((c) => c.normalsDirtySince != null && !loading.has(c));
             dirty.sort((a, b) => a.normalsDirtySince - b.normalsDirtySince);
             const t0 = performance.now();
             const sinceLast = previousUpdate === undefined ? 0 : t0 - previousUpdate;

@@ -524,15 +524,20 @@ function frame(now) {
         if (last.changed || last.blending) cutChanged = true;
         cpu.update += performance.now() - t0;
     }
-    // A change of the cut alone (chunks arriving) is drawn at most every 4 frame times: where
-    // drawing is slow (software WebGL, huge cuts) loading then keeps most of the main thread.
-    if (cutChanged && now - lastRender >= Math.min(2000, 4 * renderInterval)) dirty = true;
+    // the cost of a drawn frame: the time from it to the next tick (the main thread waits for the
+    // GPU there: in software WebGL Chromium reads every frame back, 0.1-0.6 s on FreeSurfer)
+    if (rendered && lastFrame > 0) renderInterval = 0.5 * renderInterval + 0.5 * (now - lastFrame);
+    // A change of the cut alone (chunks arriving) is drawn at most every 4 frame costs while
+    // chunks are loading, at once when loading is over: where drawing is slow (software WebGL,
+    // huge cuts) loading then keeps most of the main thread. (The cost used to be measured only
+    // between consecutive drawn frames, which this throttle makes rare: it stayed at 16 ms, and
+    // FreeSurfer drew a frame per arriving chunk, 18 s of its 28 s settling in readbacks.)
+    if (cutChanged && (strata?.idle || now - lastRender >= Math.min(2000, 4 * renderInterval))) dirty = true;
     if (lastFrame > 0) tickTimes.push(now - lastFrame);
     if (tickTimes.length > 20000) tickTimes.splice(0, tickTimes.length - 20000);
     if (dirty) {
         renderStamps.push(now);
         if (renderStamps.length > 20000) renderStamps.splice(0, renderStamps.length - 20000);
-        if (rendered) renderInterval = 0.8 * renderInterval + 0.2 * (now - lastFrame);
         lastRender = now;
         cutChanged = false;
         if (rendered && lastFrame > 0) frameTimes.push(now - lastFrame);
