@@ -29,7 +29,10 @@
 #     --cases LIST         instead of the above, the speed table (issue 19): comma-separated
 #                          cases among e2e (this volume), freesurfer (the FreeSurfer aparc of
 #                          ../shared/data, its PNG stack written as NIfTI), totalseg (the
-#                          TotalSegmentator example), or all; per case, alternating, RUNS times
+#                          TotalSegmentator example), wholebody (`strata phantom whole_body`:
+#                          512x512x1000, 117 organ-like labels, as NIfTI), wholebody4 (the
+#                          same solids on every 4th slice: 250 slices of 6 mm), or all (e2e,
+#                          freesurfer, totalseg, wholebody); per case, alternating, RUNS times
 #                          (default 1 here): strata build --threads 1, --threads 2 and the
 #                          Slicer pipeline (--threads N), each a whole process under
 #                          /usr/bin/time -v; one table of wall, CPU, peak RSS, strata's stage
@@ -105,7 +108,7 @@ rm -rf "$work/runs" "$work/strata" "$work/slicer" "$work"/error_*.json "$work"/e
 mkdir -p "$work/runs"
 
 if [[ -n "$cases" ]]; then
-    [[ $cases == all ]] && cases=e2e,freesurfer,totalseg
+    [[ $cases == all ]] && cases=e2e,freesurfer,totalseg,wholebody
     [[ -n $runs_given ]] || runs=1
     data="$root/../shared/data"
     for case in ${cases//,/ }; do
@@ -124,7 +127,14 @@ if [[ -n "$cases" ]]; then
             totalseg)
                 input="$data/totalsegmentator_abdomen/example_seg.nii.gz"
                 what="TotalSegmentator example, 122x101x30, 41 labels" ;;
-            *) echo "bench-e2e: unknown case $case (e2e, freesurfer, totalseg, all)" >&2; exit 2 ;;
+            wholebody|wholebody4)
+                input="$dir/whole_body.nii.gz"
+                spacing=()
+                [[ $case == wholebody4 ]] && spacing=(--slice-spacing 6)
+                "$strata" phantom whole_body --format nifti -o "$input" "${spacing[@]}" --quiet
+                what="strata phantom whole_body ${spacing[*]}, 117 labels" ;;
+            *) echo "bench-e2e: unknown case $case (e2e, freesurfer, totalseg, wholebody," \
+                    "wholebody4, all)" >&2; exit 2 ;;
         esac
         "$python" -c 'import json, sys
 json.dump({"name": sys.argv[1], "input": sys.argv[2], "what": sys.argv[3],

@@ -857,6 +857,9 @@ int run_phantom(const PhantomCommandOptions& options) {
         for (const std::string& name : phantom_names()) {
             std::cout << name << '\n';
         }
+        for (const std::string& name : benchmark_phantom_names()) {
+            std::cout << name << '\n';
+        }
         return 0;
     }
     PhantomOptions phantom_options;

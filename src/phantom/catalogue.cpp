@@ -18,6 +18,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "phantom/whole_body.h"
 
 namespace strata {
 
@@ -124,9 +125,19 @@ Spec single(std::string id,
 // Rasterisation
 
 void paint(SliceStack& stack, const std::vector<Paint>& paints, double d) {
+    // note: a solid is empty on the planes outside its (conservative) bounds in z; skipping them
+    // leaves the stack unchanged and keeps a 1000-slice map of small solids fast
+    std::vector<Bounds3> bounds;
+    for (const Paint& p : paints) {
+        bounds.push_back(bounding_box(p.solid));
+    }
     for (std::uint32_t k = 0; k < stack.depth; ++k) {
         auto slice = stack.slice(k);
-        for (const Paint& p : paints) {
+        for (std::size_t n = 0; n < paints.size(); ++n) {
+            const Paint& p = paints[n];
+            if (k * d < bounds[n].min.z || k * d > bounds[n].max.z) {
+                continue;
+            }
             const std::vector<std::uint8_t> mask =
                 rasterize_solid_slice(p.solid, k * d, stack.width, stack.height);
             for (std::size_t i = 0; i < mask.size(); ++i) {
@@ -863,10 +874,32 @@ Spec scene() {
     return s;
 }
 
+Spec whole_body() {
+    Spec s = base("",
+                  "whole-body-like map: the 117 TotalSegmentator classes as organ-like solids, "
+                  "1 mm pixels, 1.5 mm slices",
+                  kWholeBodyWidth, kWholeBodyHeight, kWholeBodyDepth, kWholeBodySliceSpacingPx);
+    for (LabelledSolid& c : whole_body_solids()) {
+        s.label_names.push_back({c.label, c.name});
+        s.objects.push_back({c.label, c.name, c.solid, false});
+        s.paint.push_back({c.label, std::move(c.solid)});
+    }
+    std::sort(s.label_names.begin(), s.label_names.end());
+    return s;
+}
+
 struct CaseEntry {
     std::string name;
     std::function<Spec(std::optional<std::uint64_t> seed)> build;
 };
+
+/// Phantoms for the benchmarks only: too large for the catalogue's tests, which build every
+/// phantom_names() case.
+const std::vector<CaseEntry>& benchmark_cases() {
+    static const std::vector<CaseEntry> kCases = {
+        {"whole_body", [](std::optional<std::uint64_t>) { return whole_body(); }}};
+    return kCases;
+}
 
 const std::vector<CaseEntry>& cases() {
     static const std::vector<CaseEntry> kCases = [] {
@@ -1003,11 +1036,13 @@ const std::vector<CaseEntry>& cases() {
 
 std::string joined_names() {
     std::string s;
-    for (const CaseEntry& c : cases()) {
-        if (!s.empty()) {
-            s += ", ";
+    for (const auto* list : {&cases(), &benchmark_cases()}) {
+        for (const CaseEntry& c : *list) {
+            if (!s.empty()) {
+                s += ", ";
+            }
+            s += c.name;
         }
-        s += c.name;
     }
     return s;
 }
@@ -1035,11 +1070,24 @@ std::vector<std::string> phantom_names() {
     return names;
 }
 
+std::vector<std::string> benchmark_phantom_names() {
+    std::vector<std::string> names;
+    for (const CaseEntry& c : benchmark_cases()) {
+        names.push_back(c.name);
+    }
+    return names;
+}
+
 Phantom make_phantom(std::string_view name, const PhantomOptions& options) {
-    const auto& all = cases();
-    const auto it =
-        std::find_if(all.begin(), all.end(), [&](const CaseEntry& c) { return c.name == name; });
-    if (it == all.end()) {
+    const CaseEntry* entry = nullptr;
+    for (const auto* list : {&cases(), &benchmark_cases()}) {
+        for (const CaseEntry& c : *list) {
+            if (c.name == name && entry == nullptr) {
+                entry = &c;
+            }
+        }
+    }
+    if (entry == nullptr) {
         throw Error(ErrorCode::InvalidInput, "unknown phantom '" + std::string(name) +
                                                  "', expected one of: " + joined_names());
     }
@@ -1056,7 +1104,7 @@ Phantom make_phantom(std::string_view name, const PhantomOptions& options) {
           << " px, expected finite and > 0";
         throw Error(ErrorCode::InvalidInput, s.str());
     }
-    Spec spec = it->build(options.seed);
+    Spec spec = entry->build(options.seed);
 
     double d = spec.d;
     std::uint32_t depth = spec.depth;

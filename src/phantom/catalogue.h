@@ -73,6 +73,10 @@ struct PhantomOptions {
 /// "hollow_sphere", "scene").
 std::vector<std::string> phantom_names();
 
+/// Phantoms for the benchmarks, not in phantom_names(): "whole_body" (phantom/whole_body.h,
+/// 512 x 512 x 1000, 117 labels; a few seconds to generate, 250 MiB of labels).
+std::vector<std::string> benchmark_phantom_names();
+
 /// Generates the named phantom. T32 (4096 x 4096 x 10, 320 MiB of labels) and T36 (runs the
 /// catalogue's acceptance test on each attempt) take about a second; the others milliseconds.
 /// \throw Error{InvalidInput} for an unknown name (listing the valid ones), a non-positive or
