@@ -1,0 +1,299 @@
+// Triangulation, end caps: a region without a partner on the next (previous) slice is closed by
+// a dome beyond its plane, by walls and a planar cap at the stack's ends, or, alone on its
+// slice, by a slab of thickness d/2.
+#include <algorithm>
+#include <cstddef>
+
+#include "triangulate/detail/label_surface.h"
+
+namespace strata::detail {
+
+/// Closes region `region` of slice k by planar caps: on top (normal +z) when it has no partner
+/// above, below when none below; alone on its slice it becomes a slab of thickness d/2.
+void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, bool bottom) {
+    Cdt cdt;
+    std::map<EdgeKey, EdgeOwner> owners;
+    insert_rings(cdt, k, false, owners, region);
+    flood_regions(cdt, k, owners);  // inside the region: lower_region >= 0
+    std::vector<std::array<std::uint32_t, 3>>& out = surface_.mesh.triangles;
+    const bool slab = top && bottom;
+    // At the ends of the stack the object may go on out of it: its last slice stands for its
+    // whole cell, as a voxel does, and the region is extended by d/2 (walls and a planar cap).
+    // note: unless it visibly closes within the cap's reach (then a dome, as inside the stack).
+    const bool stack_end =
+        !slab && level_z_ == nullptr && options_.cap_reach > 0.0 &&
+        ((top && k + 1 == contours_.slices.size()) || (bottom && k == 0)) &&
+        !(cap_height(k, region, top) < options_.cap_reach * options_.slice_spacing_px);
+    const bool walls = slab || stack_end;
+    if (!walls && !dome_cap(cdt, owners, k, region, top)) {
+        // no dome (too small, or its refinement did not converge): planar
+        cdt.clear();
+        owners.clear();
+        insert_rings(cdt, k, false, owners, region);
+        flood_regions(cdt, k, owners);
+    }
+    std::map<std::uint32_t, std::array<std::uint32_t, 2>> lifted;  // ring id -> (below, above)
+    auto lift = [&](std::uint32_t id) {
+        auto it = lifted.find(id);
+        if (it == lifted.end()) {
+            const Vec3 p = surface_.mesh.positions[id];
+            const double d = options_.slice_spacing_px;
+            const double down = slab ? d / 4.0 : bottom ? d / 2.0 : 0.0;
+            const double up = slab ? d / 4.0 : top ? d / 2.0 : 0.0;
+            const std::uint32_t below = down > 0.0 ? add_vertex({p.x, p.y}, p.z - down) : id;
+            const std::uint32_t above = up > 0.0 ? add_vertex({p.x, p.y}, p.z + up) : id;
+            it = lifted.emplace(id, std::array<std::uint32_t, 2>{below, above}).first;
+        }
+        return it->second;
+    };
+    for (FaceHandle f : cdt.finite_face_handles()) {
+        if (f->info().lower_region < 0) {
+            continue;
+        }
+        std::array<std::uint32_t, 3> t{};
+        bool on_contour = true;
+        for (int i = 0; i < 3; ++i) {
+            const VertexInfo& info = f->vertex(i)->info();
+            // dome vertices carry their global id in `steiner`
+            const std::int32_t id = info.lower >= 0 ? info.lower : info.steiner;
+            on_contour = on_contour && id >= 0;
+            t[std::size_t(i)] = std::uint32_t(id);
+        }
+        if (!on_contour) {
+            ++surface_.failed_slabs;
+            issue(k, "a cap vertex is not on the contour");
+            continue;
+        }
+        if (walls) {
+            if (top) {
+                out.push_back({lift(t[0])[1], lift(t[1])[1], lift(t[2])[1]});
+            }
+            if (bottom) {
+                out.push_back({lift(t[0])[0], lift(t[2])[0], lift(t[1])[0]});
+            }
+        } else if (top) {
+            out.push_back(t);
+        } else {
+            out.push_back({t[0], t[2], t[1]});
+        }
+    }
+    if (walls) {
+        // Walls: contours keep the region on their left, so outward is to the right.
+        for (std::uint32_t local = 0; local < rings_[k].size(); ++local) {
+            if (owner_region(k, local) != region) {
+                continue;
+            }
+            const Ring& ring = rings_[k][local];
+            for (std::size_t i = 0; i < ring.ids.size(); ++i) {
+                const auto p = lift(ring.ids[i]);
+                const auto q = lift(ring.ids[(i + 1) % ring.ids.size()]);
+                out.push_back({p[0], q[0], q[1]});
+                out.push_back({p[0], q[1], p[1]});
+            }
+        }
+    }
+    if (slab) {
+        surface_.caps += 2;
+    } else {
+        surface_.caps += 1;
+    }
+}
+
+double LabelSurface::region_area(std::uint32_t slice, std::uint32_t region) const {
+    double area = 0.0;  // outer contours count positive, holes negative
+    for (std::uint32_t local = 0; local < rings_[slice].size(); ++local) {
+        if (owner_region(slice, local) != region) {
+            continue;
+        }
+        const Ring& ring = rings_[slice][local];
+        for (std::size_t i = 0; i < ring.points.size(); ++i) {
+            const Vec2 a = to_vec(ring.points[i]);
+            const Vec2 b = to_vec(ring.points[(i + 1) % ring.points.size()]);
+            area += 0.5 * (a.x * b.y - b.x * a.y);
+        }
+    }
+    return area;
+}
+
+/// How far the object goes on past slice k where region `region` ends (above when `top`): a
+/// paraboloid cut by planes d apart has H = d A / (A' - A), A the region's area and A' its
+/// partners' on the other side (each shared between its partners here by area). Infinity
+/// where the areas do not shrink.
+double LabelSurface::cap_height(std::uint32_t k, std::uint32_t region, bool top) const {
+    const double d = options_.slice_spacing_px;
+    const double area = region_area(k, region);
+    // The partners on the other side, and the share of each that leads to this region.
+    double partner_area = 0.0;
+    const std::uint32_t slab = top ? k - 1 : k;
+    const std::uint32_t other = top ? k - 1 : k + 1;
+    for (const auto& [pair, count] : link_pieces_[slab]) {
+        const std::uint32_t here = top ? pair.second : pair.first;
+        const std::uint32_t there = top ? pair.first : pair.second;
+        if (here != region) {
+            continue;
+        }
+        double siblings = 0.0;  // every region of slice k this partner leads to
+        for (const auto& [pair2, count2] : link_pieces_[slab]) {
+            if ((top ? pair2.first : pair2.second) == there) {
+                siblings += region_area(k, top ? pair2.second : pair2.first);
+            }
+        }
+        partner_area += region_area(other, there) * (siblings > 0.0 ? area / siblings : 1.0);
+    }
+    if (partner_area > area && area > 0.0) {
+        return d * area / (partner_area - area);
+    }
+    return std::numeric_limits<double>::infinity();
+}
+
+/// Region `region` of slice k ends there (no partner above when `top`, else below). The object
+/// goes on past the slice plane by some height in [0, d) that the slices do not show; the cap is
+/// domed by the paraboloid that continues the slab it closes: over a point at distance D inside
+/// the contour its height is H (1 - (1 - D / Dmax)^2), Dmax the region's largest D. H follows
+/// from the shrinking areas A (this region) and A' (its partners on the other side, shared
+/// between their partners here by area): a paraboloid cut by planes d apart has
+/// H = d A / (A' - A). H is at most options.cap_reach d (half a slab where the areas do not
+/// shrink). Adds Steiner vertices on a grid inside the region (vertex info `steiner`: their
+/// global id); the contour keeps z_k, so the section at the slice plane is still the contour.
+/// Returns false, with the triangulation to be built again, where no dome is made (a region
+/// too small or too flat for one, or chords that would not go).
+bool LabelSurface::dome_cap(Cdt& cdt,
+                            const std::map<EdgeKey, EdgeOwner>& owners,
+                            std::uint32_t k,
+                            std::uint32_t region,
+                            bool top) {
+    const double d = options_.slice_spacing_px;
+    const DistanceField* f = field(k);
+    if (level_z_ != nullptr || options_.cap_reach <= 0.0 || f == nullptr) {
+        return false;
+    }
+    double height = cap_height(k, region, top);
+    if (!std::isfinite(height)) {
+        height = 0.5 * d;  // the areas do not shrink: half a slab on average
+    }
+    height = std::min(height, options_.cap_reach * d);
+
+    // Dmax: the deepest field node inside this region.
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    for (std::uint32_t local = 0; local < rings_[k].size(); ++local) {
+        if (owner_region(k, local) != region) {
+            continue;
+        }
+        for (const Point& p : rings_[k][local].points) {
+            const Vec2 q = to_vec(p);
+            x0 = std::min(x0, q.x);
+            y0 = std::min(y0, q.y);
+            x1 = std::max(x1, q.x);
+            y1 = std::max(y1, q.y);
+        }
+    }
+    auto inside = [&](Vec2 q) {
+        Cdt::Locate_type type;
+        int li = 0;
+        const FaceHandle face = cdt.locate(to_point(q), type, li);
+        if (type == Cdt::VERTEX || type == Cdt::OUTSIDE_CONVEX_HULL ||
+            type == Cdt::OUTSIDE_AFFINE_HULL || cdt.is_infinite(face) ||
+            face->info().lower_region != std::int32_t(region)) {
+            return false;
+        }
+        return !(type == Cdt::EDGE && cdt.is_constrained({face, li}));
+    };
+    const double cell = DistanceField::kCellPx;
+    const auto i0 =
+        std::uint32_t(std::clamp(std::floor((x0 - f->origin_x) / cell), 0.0, double(f->nx - 1)));
+    const auto i1 =
+        std::uint32_t(std::clamp(std::ceil((x1 - f->origin_x) / cell), 0.0, double(f->nx - 1)));
+    const auto j0 =
+        std::uint32_t(std::clamp(std::floor((y0 - f->origin_y) / cell), 0.0, double(f->ny - 1)));
+    const auto j1 =
+        std::uint32_t(std::clamp(std::ceil((y1 - f->origin_y) / cell), 0.0, double(f->ny - 1)));
+    std::vector<std::pair<float, std::uint32_t>> deep;  // (-D, node) inside the label
+    for (std::uint32_t j = j0; j <= j1; ++j) {
+        for (std::uint32_t i = i0; i <= i1; ++i) {
+            const float v = f->at(i, j);
+            if (v < 0.0f) {
+                deep.emplace_back(v, j * f->nx + i);
+            }
+        }
+    }
+    std::sort(deep.begin(), deep.end());
+    double dmax = 0.0;
+    for (std::size_t n = 0; n < deep.size() && n < 256; ++n) {
+        const std::uint32_t node = deep[n].second;
+        if (inside(f->node_position(node % f->nx, node / f->nx))) {
+            dmax = -double(deep[n].first);
+            break;
+        }
+    }
+    if (!(dmax > 1.0) || !(height > 0.0)) {
+        return false;
+    }
+    // Grid points: spacing a third of Dmax (1 to 8 px), at least 1 px inside. Heights are at
+    // least one quantization step of z (d / 16) so that no vertex snaps into the plane.
+    const double step = std::clamp(dmax / 3.0, 1.0, 8.0);
+    const double z = slice_z(k);
+    const double sign = top ? 1.0 : -1.0;
+    const double lowest = d / 16.0;
+    if (height < 2.0 * lowest) {
+        return false;
+    }
+    auto dome_height = [&](Vec2 q) {
+        const double depth = std::max(-sample_field(f, q), 0.0);
+        const double u = 1.0 - std::min(depth / dmax, 1.0);
+        return std::max(height * (1.0 - u * u), lowest);
+    };
+    std::vector<Vec2> points;
+    for (double y = std::floor(y0 / step) * step + 0.5 * step; y < y1; y += step) {
+        for (double x = std::floor(x0 / step) * step + 0.5 * step; x < x1; x += step) {
+            const Vec2 q{x, y};
+            if (-sample_field(f, q) >= 1.0 && inside(q)) {
+                points.push_back(q);
+            }
+        }
+    }
+    if (points.empty()) {
+        return false;
+    }
+    auto add = [&](const Point& p) {
+        const VertexHandle v = cdt.insert(p);
+        if (v->info().lower < 0 && v->info().steiner < 0) {
+            const Vec2 q = to_vec(p);
+            v->info().steiner = std::int32_t(add_vertex(q, z + sign * dome_height(q)));
+        }
+    };
+    // note: the points were checked on the rings' triangulation (faces labelled), not between
+    // insertions; Steiner points never split a constrained edge.
+    for (const Vec2& q : points) {
+        add(to_point(q));
+    }
+    // No inner edge may join two contour vertices: it would lie in the slice plane, inside the
+    // region, and become part of the section there. Split such chords at their midpoints.
+    for (int round = 0; round < 16; ++round) {
+        flood_regions(cdt, k, owners);
+        std::vector<Point> chords;
+        for (FaceHandle face : cdt.finite_face_handles()) {
+            if (face->info().lower_region != std::int32_t(region)) {
+                continue;
+            }
+            for (int i = 0; i < 3; ++i) {
+                const VertexHandle a = face->vertex(ccw(i));
+                const VertexHandle b = face->vertex(cw(i));
+                if (!cdt.is_constrained({face, i}) && a->info().steiner < 0 &&
+                    b->info().steiner < 0) {
+                    chords.push_back(CGAL::midpoint(a->point(), b->point()));
+                }
+            }
+        }
+        if (chords.empty()) {
+            return true;
+        }
+        std::sort(chords.begin(), chords.end());
+        chords.erase(std::unique(chords.begin(), chords.end()), chords.end());
+        for (const Point& p : chords) {
+            add(p);
+        }
+    }
+    return false;
+}
+
+}  // namespace strata::detail

@@ -1,0 +1,370 @@
+// Internals of the triangulation stage (triangulate/surface.h), shared by its files: the planar
+// constrained Delaunay triangulation a slab is built on, the contour rings, and LabelSurface,
+// which builds one label's closed surface in these phases:
+//   rings.cpp          contour rings with the neighbouring slices' crossing points, their
+//                      triangulation, the region every face lies in;
+//   overlap_check.cpp  whether the contours of a slab overlap as the pixels do;
+//   lift.cpp           the height t of a point between the slices, Steiner points, the level of
+//                      each face corner;
+//   slab.cpp           one slab: medial, curvature and refinement points, then its triangles;
+//   caps.cpp           end caps: planar, domed, or a region alone on its slice;
+//   split_slabs.cpp    the stack with the pixels' AND layer inserted in slabs that still mismatch;
+//   surface.cpp        build() runs the phases; the fallbacks and the public entry points.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
+
+#include "triangulate/surface.h"
+
+namespace strata::detail {
+
+using Kernel = CGAL::Exact_predicates_exact_constructions_kernel;
+using Point = Kernel::Point_2;
+using Segment = Kernel::Segment_2;
+
+/// What a planar vertex stands for in 3D: a point of slice k's contour ring (`lower`), of slice
+/// k+1's (`upper`), both where the contours meet, or a Steiner point between the slices.
+struct VertexInfo {
+    std::int32_t lower = -1;    ///< global vertex id at z_k
+    std::int32_t upper = -1;    ///< global vertex id at z_k+1
+    std::int32_t steiner = -1;  ///< index into the slab's Steiner list
+};
+
+enum Level : std::int8_t { kUnset = -1, kLow = 0, kHigh = 1, kBetween = 2 };
+
+struct FaceInfo {
+    std::int32_t lower_region = -1;  ///< region of slice k containing the face, -1 none
+    std::int32_t upper_region = -1;
+    std::uint32_t lower_background = 0;  ///< background component of slice k (region -1 only)
+    std::uint32_t upper_background = 0;
+    bool seen = false;
+    std::array<Level, 3> corner{kUnset, kUnset, kUnset};
+};
+
+using Vb = CGAL::Triangulation_vertex_base_with_info_2<VertexInfo, Kernel>;
+using Fbi = CGAL::Triangulation_face_base_with_info_2<FaceInfo, Kernel>;
+using Fb = CGAL::Constrained_triangulation_face_base_2<Kernel, Fbi>;
+using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
+using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_intersections_tag>;
+using VertexHandle = Cdt::Vertex_handle;
+using FaceHandle = Cdt::Face_handle;
+
+inline int ccw(int i) {
+    return Cdt::ccw(i);
+}
+inline int cw(int i) {
+    return Cdt::cw(i);
+}
+
+/// The contour points of one contour as used by every triangle touching its slice: the
+/// simplified vertices plus every point where a contour of a neighbouring slice crosses, touches
+/// or overlaps one of its edges, in contour order.
+struct Ring {
+    std::vector<Point> points;
+    std::vector<std::uint32_t> ids;  ///< global vertex ids (z = k d)
+};
+
+/// Key of a constrained edge: its two vertices, in a fixed order.
+using EdgeKey = std::pair<const void*, const void*>;
+inline EdgeKey edge_key(VertexHandle a, VertexHandle b) {
+    const void* pa = &*a;
+    const void* pb = &*b;
+    return pa < pb ? EdgeKey{pa, pb} : EdgeKey{pb, pa};
+}
+
+/// Which contour (local index on its slice) an edge belongs to, per side of the slab.
+struct EdgeOwner {
+    std::int32_t lower = -1;
+    std::int32_t upper = -1;
+};
+
+inline Point to_point(Vec2 p) {
+    return Point(p.x, p.y);
+}
+
+inline Vec2 to_vec(const Point& p) {
+    return {CGAL::to_double(p.x()), CGAL::to_double(p.y())};
+}
+
+/// The edges of one slice's contour rings, bucketed on a square grid, for nearest-edge queries.
+class SegmentGrid {
+public:
+    SegmentGrid() = default;
+    explicit SegmentGrid(const std::vector<Ring>& rings) {
+        for (const Ring& ring : rings) {
+            const std::size_t n = ring.points.size();
+            for (std::size_t i = 0; i < n; ++i) {
+                segments_.push_back({to_vec(ring.points[i]), to_vec(ring.points[(i + 1) % n])});
+            }
+        }
+        if (segments_.empty()) {
+            return;
+        }
+        lo_ = hi_ = segments_.front()[0];
+        for (const auto& s : segments_) {
+            for (const Vec2 p : s) {
+                lo_ = {std::min(lo_.x, p.x), std::min(lo_.y, p.y)};
+                hi_ = {std::max(hi_.x, p.x), std::max(hi_.y, p.y)};
+            }
+        }
+        nx_ = std::int64_t((hi_.x - lo_.x) / kCell) + 1;
+        ny_ = std::int64_t((hi_.y - lo_.y) / kCell) + 1;
+        cells_.assign(std::size_t(nx_ * ny_), {});
+        for (std::uint32_t i = 0; i < segments_.size(); ++i) {
+            const auto& s = segments_[i];
+            const auto [i0, j0] = cell(Vec2{std::min(s[0].x, s[1].x), std::min(s[0].y, s[1].y)});
+            const auto [i1, j1] = cell(Vec2{std::max(s[0].x, s[1].x), std::max(s[0].y, s[1].y)});
+            for (std::int64_t j = j0; j <= j1; ++j) {
+                for (std::int64_t c = i0; c <= i1; ++c) {
+                    cells_[std::size_t(j * nx_ + c)].push_back(i);
+                }
+            }
+        }
+    }
+
+    /// Distance (px) from q to the nearest edge; infinity without edges.
+    double distance(Vec2 q) const {
+        double best = std::numeric_limits<double>::infinity();
+        if (segments_.empty()) {
+            return best;
+        }
+        // q's projection onto the grid's box lies in cell (ci, cj); the cells of ring r + 1
+        // around it are at least r cells away from q.
+        const auto [ci, cj] = cell(q);
+        for (std::int64_t r = 0;; ++r) {
+            if (std::sqrt(best) <= (r - 1) * kCell || (r > nx_ && r > ny_)) {
+                break;
+            }
+            for (std::int64_t j = cj - r; j <= cj + r; ++j) {
+                if (j < 0 || j >= ny_) {
+                    continue;
+                }
+                const bool edge_row = j == cj - r || j == cj + r;
+                for (std::int64_t i = ci - r; i <= ci + r;
+                     i += edge_row ? 1 : 2 * std::max<std::int64_t>(r, 1)) {
+                    if (i < 0 || i >= nx_) {
+                        continue;
+                    }
+                    for (const std::uint32_t s : cells_[std::size_t(j * nx_ + i)]) {
+                        best = std::min(best, squared_distance(q, segments_[s]));
+                    }
+                }
+            }
+        }
+        return std::sqrt(best);
+    }
+
+private:
+    static constexpr double kCell = 2.0;  // px
+    std::pair<std::int64_t, std::int64_t> cell(Vec2 p) const {
+        const auto i = std::int64_t(std::floor((std::clamp(p.x, lo_.x, hi_.x) - lo_.x) / kCell));
+        const auto j = std::int64_t(std::floor((std::clamp(p.y, lo_.y, hi_.y) - lo_.y) / kCell));
+        return {std::min(i, nx_ - 1), std::min(j, ny_ - 1)};
+    }
+    static double squared_distance(Vec2 q, const std::array<Vec2, 2>& s) {
+        const Vec2 ab = s[1] - s[0];
+        const double length2 = dot(ab, ab);
+        const double u = length2 > 0.0 ? std::clamp(dot(q - s[0], ab) / length2, 0.0, 1.0) : 0.0;
+        const Vec2 c = s[0] + u * ab;
+        return dot(q - c, q - c);
+    }
+    std::vector<std::array<Vec2, 2>> segments_;
+    std::vector<std::vector<std::uint32_t>> cells_;
+    Vec2 lo_{};
+    Vec2 hi_{};
+    std::int64_t nx_ = 0;
+    std::int64_t ny_ = 0;
+};
+
+class LabelSurface {
+public:
+    LabelSurface(const SliceContours& contours,
+                 const std::vector<SliceDistanceFields>& fields,
+                 const std::vector<MedialAxis>& medial_axes,
+                 const TriangulateOptions& options,
+                 std::uint16_t label,
+                 const std::vector<double>* level_z = nullptr)
+        : contours_(contours),
+          fields_(fields),
+          medial_axes_(medial_axes),
+          options_(options),
+          label_(label),
+          level_z_(level_z) {}
+
+    ObjectSurface build();
+
+private:
+    // --- set-up --------------------------------------------------------------------------------
+    void collect_contours();
+    void collect_links();
+    void find_crossings(std::uint32_t k);
+    void build_rings();
+
+    // --- per slab ------------------------------------------------------------------------------
+    void triangulate_slab(std::uint32_t k);
+    /// Inserts the contour rings of `slice` (only those of region `only_region` when it is not
+    /// negative) as vertices and constraints, recording which contour owns each edge.
+    void insert_rings(Cdt& cdt,
+                      std::uint32_t slice,
+                      bool upper,
+                      std::map<EdgeKey, EdgeOwner>& owners,
+                      std::int64_t only_region = -1);
+    void flood_regions(Cdt& cdt, std::uint32_t k, const std::map<EdgeKey, EdgeOwner>& owners);
+    /// Inserts Steiner points in slab k, floods the regions again and reports the edges they
+    /// split (`what` names the points in the report).
+    void insert_steiners(Cdt& cdt,
+                         const std::vector<Point>& points,
+                         std::uint32_t k,
+                         const std::map<EdgeKey, EdgeOwner>& owners,
+                         const char* what);
+    void check_overlap_topology(Cdt& cdt, std::uint32_t k);
+    bool in_lower(const FaceInfo& f, std::uint32_t k) const;
+    bool in_upper(const FaceInfo& f, std::uint32_t k) const;
+    bool in_surface(FaceHandle f, std::uint32_t k) const;
+    Level boundary_class(FaceHandle f, int i, std::uint32_t k) const;
+    bool is_boundary(FaceHandle f, int i, std::uint32_t k) const;
+    /// Fills the corner levels of the wedge of `f` around its vertex `i`; returns false when the
+    /// wedge needs a Steiner point first (then `refine` receives one).
+    bool resolve_corner(Cdt& cdt, FaceHandle f, int i, std::uint32_t k, std::vector<Point>& refine);
+    double height_t(const Point& p, std::uint32_t k) const;
+    VertexHandle insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k);
+    /// Gives vertex v a height between the slices (from the distance fields).
+    void make_steiner(VertexHandle v, std::uint32_t k);
+
+    // --- caps ----------------------------------------------------------------------------------
+    void cap_region(std::uint32_t k, std::uint32_t region, bool top, bool bottom);
+    /// Adds the dome's vertices to the cap triangulation of a region that ends at slice k.
+    bool dome_cap(Cdt& cdt,
+                  const std::map<EdgeKey, EdgeOwner>& owners,
+                  std::uint32_t k,
+                  std::uint32_t region,
+                  bool top);
+    /// Signed area (px^2) of region `region` of `slice`: its outer contours less its holes.
+    double region_area(std::uint32_t slice, std::uint32_t region) const;
+    double cap_height(std::uint32_t k, std::uint32_t region, bool top) const;
+
+    std::uint32_t add_vertex(Vec2 p, double z) {
+        surface_.mesh.positions.push_back({p.x, p.y, z});
+        return std::uint32_t(surface_.mesh.positions.size() - 1);
+    }
+    double slice_z(std::uint32_t k) const {
+        return level_z_ != nullptr ? (*level_z_)[k] : options_.slice_spacing_px * k;
+    }
+    std::uint32_t owner_region(std::uint32_t slice, std::uint32_t local) const {
+        const std::vector<Contour>& all = contours_.slices[slice].contours;
+        const Contour& c = all[label_contours_[slice][local]];
+        return c.is_hole ? all[std::size_t(c.parent)].region : c.region;
+    }
+    /// The background component on the outer side of an outer contour, inside a hole contour.
+    std::uint32_t background_beside(std::uint32_t slice, std::uint32_t local) const {
+        const std::vector<Contour>& all = contours_.slices[slice].contours;
+        const Contour& c = all[label_contours_[slice][local]];
+        if (c.is_hole) {
+            return c.region;
+        }
+        return c.parent >= 0 ? all[std::size_t(c.parent)].region : 0;
+    }
+    const DistanceField* field(std::uint32_t slice) const {
+        for (const DistanceField& f : fields_[slice].fields) {
+            if (f.label == label_) {
+                return &f;
+            }
+        }
+        return nullptr;
+    }
+    void issue(std::uint32_t k, std::string what) {
+        surface_.issues.push_back({k, std::move(what)});
+    }
+
+    const SliceContours& contours_;
+    const std::vector<SliceDistanceFields>& fields_;
+    const std::vector<MedialAxis>& medial_axes_;
+    const TriangulateOptions& options_;
+    std::uint16_t label_;
+    /// z of each level when levels are not the slices (split slabs), else null: z = k d.
+    const std::vector<double>* level_z_;
+
+    ObjectSurface surface_;
+    /// Per slice: indices (into the slice's contour list) of this label's contours.
+    std::vector<std::vector<std::uint32_t>> label_contours_;
+    /// Per slice: number of foreground regions of this label.
+    std::vector<std::uint32_t> region_count_;
+    /// Per slice, per region: linked to a region of the next / previous slice.
+    std::vector<std::vector<bool>> linked_up_;
+    std::vector<std::vector<bool>> linked_down_;
+    /// Per slab: number of overlap pieces between (lower region, upper region).
+    std::vector<std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t>> link_pieces_;
+    /// Per slab: background links, each (slice k components, slice k+1 components), sorted.
+    std::vector<std::vector<std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>>>
+        background_links_;
+    /// Per slice, per local contour, per simplified edge: extra points on it.
+    std::vector<std::vector<std::vector<std::vector<Point>>>> splits_;
+    /// Per slice, per local contour.
+    std::vector<std::vector<Ring>> rings_;
+    /// Steiner points of the slab being built: height parameter t and global id (-1: unused).
+    std::vector<double> steiner_t_;
+    std::vector<std::int32_t> steiner_id_;
+    std::vector<Vec2> steiner_xy_;
+    /// The contour rings of the slab being built's two slices (height_t).
+    std::array<SegmentGrid, 2> slab_rings_;
+    std::size_t unowned_edges_ = 0;
+    std::vector<std::uint32_t> mismatched_slabs_;
+
+public:
+    /// Slabs whose simplified contours overlapped unlike the pixels (filled by build()).
+    const std::vector<std::uint32_t>& mismatched_slabs() const { return mismatched_slabs_; }
+
+private:
+    /// Collinear overlaps of a slice k edge and a slice k+1 edge (slice, local contour, edge):
+    /// every point on one edge inside the overlap must be on the other too.
+    struct Overlap {
+        Segment segment;
+        std::array<std::uint32_t, 3> lower;
+        std::array<std::uint32_t, 3> upper;
+    };
+    std::vector<Overlap> overlaps_;
+    void share_overlap_points();  ///< constrained edges split by the triangulation (a bug)
+};
+
+/// The signed distance of slice field `f` at q (bilinear between nodes; negative inside; 1e9
+/// without a field, outside_window_px outside its window).
+double sample_field(const DistanceField* f, Vec2 q);
+
+/// The closest contour site of field `f` to q (that of the node nearest q); false without a
+/// field.
+bool closest_site(const DistanceField* f, Vec2 q, Vec2& site);
+
+/// The stack with a level inserted in the middle of every split slab: the contours of the pixel
+/// AND of the two slices (the reference volume's middle layer), saddles widened, with its own
+/// distance field and links by pixel overlap to both slices.
+struct Levels {
+    SliceContours contours;
+    std::vector<SliceDistanceFields> fields;
+    std::vector<MedialAxis> medial_axes;
+    std::vector<double> z;
+    std::vector<std::uint32_t> slice_of;  ///< per level: the slice it is, or lies above
+};
+
+/// The stack with a level inserted in the middle of every slab marked in `split` (see Levels),
+/// for one label; `d` is the slice spacing (px).
+Levels split_slabs(const SliceStack& stack,
+                   const SliceContours& contours,
+                   const std::vector<SliceDistanceFields>& fields,
+                   const std::vector<MedialAxis>& medial_axes,
+                   std::uint16_t label,
+                   const std::vector<bool>& split,
+                   double d);
+
+}  // namespace strata::detail

@@ -1,0 +1,329 @@
+// Triangulation, lifting: the height t of a point between slices k and k+1 (from the slices'
+// distance fields and the simplified rings), Steiner points, and the level (z_k, between,
+// z_k+1) of every corner of a surface face.
+#include <algorithm>
+#include <cstddef>
+
+#include "triangulate/detail/label_surface.h"
+
+namespace strata::detail {
+
+namespace {
+
+/// The root in [0, 1] of the cubic Hermite curve from a (at 0) to b (at 1), a and b of opposite
+/// signs, with end slopes m0 and m1 limited so that the curve is monotone there (Fritsch and
+/// Carlson): the root is unique and moves continuously with the data.
+double hermite_root(double a, double b, double m0, double m1) {
+    const double delta = b - a;
+    if (m0 * delta <= 0.0) {
+        m0 = 0.0;
+    }
+    if (m1 * delta <= 0.0) {
+        m1 = 0.0;
+    }
+    const double alpha = m0 / delta;
+    const double beta = m1 / delta;
+    const double norm = alpha * alpha + beta * beta;
+    if (norm > 9.0) {
+        const double tau = 3.0 / std::sqrt(norm);
+        m0 = tau * alpha * delta;
+        m1 = tau * beta * delta;
+    }
+    auto value = [&](double t) {
+        const double t2 = t * t;
+        const double t3 = t2 * t;
+        return (2 * t3 - 3 * t2 + 1) * a + (t3 - 2 * t2 + t) * m0 + (-2 * t3 + 3 * t2) * b +
+               (t3 - t2) * m1;
+    };
+    double lo = 0.0;
+    double hi = 1.0;
+    const bool rising = delta > 0.0;
+    for (int i = 0; i < 40; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        if ((value(mid) < 0.0) == rising) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return 0.5 * (lo + hi);
+}
+
+}  // namespace
+
+double sample_field(const DistanceField* f, Vec2 q) {
+    if (f == nullptr) {
+        return 1e9;
+    }
+    const double u = (q.x - f->origin_x) / DistanceField::kCellPx;
+    const double v = (q.y - f->origin_y) / DistanceField::kCellPx;
+    if (!(u >= 0.0 && v >= 0.0 && u <= f->nx - 1.0 && v <= f->ny - 1.0)) {
+        return f->outside_window_px;
+    }
+    const auto i = std::min<std::uint32_t>(std::uint32_t(u), f->nx - 2);
+    const auto j = std::min<std::uint32_t>(std::uint32_t(v), f->ny - 2);
+    const double fu = u - i;
+    const double fv = v - j;
+    return (1 - fu) * (1 - fv) * f->at(i, j) + fu * (1 - fv) * f->at(i + 1, j) +
+           (1 - fu) * fv * f->at(i, j + 1) + fu * fv * f->at(i + 1, j + 1);
+}
+
+bool closest_site(const DistanceField* f, Vec2 q, Vec2& site) {
+    if (f == nullptr || f->nx == 0 || f->ny == 0) {
+        return false;
+    }
+    const double cell = DistanceField::kCellPx;
+    const auto i = std::uint32_t(
+        std::clamp(std::nearbyint((q.x - f->origin_x) / cell), 0.0, double(f->nx - 1)));
+    const auto j = std::uint32_t(
+        std::clamp(std::nearbyint((q.y - f->origin_y) / cell), 0.0, double(f->ny - 1)));
+    const std::array<std::int32_t, 2>& s = f->site_nodes[f->closest(f->node_index(i, j))];
+    site = {f->origin_x + cell * s[0], f->origin_y + cell * s[1]};
+    return true;
+}
+
+double LabelSurface::height_t(const Point& p, std::uint32_t k) const {
+    const Vec2 q = to_vec(p);
+    const double a = sample_field(field(k), q);
+    const double b = sample_field(field(k + 1), q);
+    double t = 0.5;
+    if (std::abs(a - b) > 1e-12) {
+        t = a / (a - b);
+    }
+    if (options_.cubic_height && a * b < 0.0) {
+        // The slices' signed distances as a function of z (one unit per slab): slopes at both
+        // slices from the neighbouring slices (Catmull-Rom), else from a parabola through the
+        // three known ones, else the secant.
+        auto known = [&](std::int64_t slice, double& value) {
+            if (slice < 0 || std::size_t(slice) >= fields_.size() || level_z_ != nullptr) {
+                return false;
+            }
+            const DistanceField* f = field(std::uint32_t(slice));
+            if (f == nullptr) {
+                return false;
+            }
+            const double u = (q.x - f->origin_x) / DistanceField::kCellPx;
+            const double v = (q.y - f->origin_y) / DistanceField::kCellPx;
+            if (!(u >= 0.0 && v >= 0.0 && u <= f->nx - 1.0 && v <= f->ny - 1.0)) {
+                return false;
+            }
+            value = sample_field(f, q);
+            return true;
+        };
+        double c = 0.0;
+        double e = 0.0;
+        const bool has_c = known(std::int64_t(k) - 1, c);
+        const bool has_e = known(std::int64_t(k) + 2, e);
+        double m0 = b - a;
+        double m1 = b - a;
+        if (has_c) {
+            m0 = 0.5 * (b - c);
+        } else if (has_e) {
+            m0 = 0.5 * (-3.0 * a + 4.0 * b - e);
+        }
+        if (has_e) {
+            m1 = 0.5 * (e - a);
+        } else if (has_c) {
+            m1 = 0.5 * (3.0 * b - 4.0 * a + c);
+        }
+        t = hermite_root(a, b, m0, m1);
+    }
+    // The fields measure the distance to the original contours, while the surface meets the
+    // simplified ones (up to the tolerance away): alone they folded the graph where the two
+    // disagree, e.g. a point right beside slice k+1's simplified contour at t = 1/2, or inside
+    // (outside) both slices by the fields and clamped to 0.05 or 0.95 between them. So half the
+    // difference between the simplified rings' own distance ratio d_k / (d_k + d_k+1) and the
+    // fields' ratio is added, and that ratio alone is taken where the fields put the point on
+    // the same side of both slices.
+    const double pa = slab_rings_[0].distance(q);
+    const double pb = slab_rings_[1].distance(q);
+    const double rings = pa + pb > 0.0 ? pa / (pa + pb) : 0.5;
+    t = a * b < 0.0 ? t + 0.5 * (rings - a / (a - b)) : rings;
+    return std::clamp(t, 0.05, 0.95);
+}
+
+void LabelSurface::make_steiner(VertexHandle v, std::uint32_t k) {
+    v->info().steiner = std::int32_t(steiner_t_.size());
+    steiner_t_.push_back(height_t(v->point(), k));
+    steiner_id_.push_back(-1);
+    steiner_xy_.push_back(to_vec(v->point()));
+}
+
+VertexHandle LabelSurface::insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k) {
+    VertexHandle v = cdt.insert(p);
+    if (v->info().steiner < 0 && v->info().lower < 0 && v->info().upper < 0) {
+        make_steiner(v, k);
+    }
+    return v;
+}
+
+void LabelSurface::insert_steiners(Cdt& cdt,
+                                   const std::vector<Point>& points,
+                                   std::uint32_t k,
+                                   const std::map<EdgeKey, EdgeOwner>& owners,
+                                   const char* what) {
+    for (const Point& p : points) {
+        insert_steiner(cdt, p, k);
+    }
+    flood_regions(cdt, k, owners);
+    if (unowned_edges_ != 0) {
+        issue(k, std::string(what) + " split " + std::to_string(unowned_edges_) + " edges");
+        unowned_edges_ = 0;
+    }
+}
+
+/// Walks the faces of the surface around vertex i of f in both directions to the boundary
+/// edges; equal classes give the level directly. A wedge between a low and a high edge (where
+/// contours cross) is split at an edge to a Steiner point: faces on the low side use the
+/// vertex at z_k, the rest at z_k+1 (the vertical triangle between them is added on output).
+bool LabelSurface::resolve_corner(
+    Cdt& cdt, FaceHandle f, int i, std::uint32_t k, std::vector<Point>& refine) {
+    const VertexHandle v = f->vertex(i);
+    if (v->info().steiner >= 0) {
+        f->info().corner[std::size_t(i)] = kBetween;
+        return true;
+    }
+    // Walk clockwise (across the edge (v, vertex(ccw))) to the first boundary edge, collecting
+    // faces; then counter-clockwise.
+    // Walks from f around v to the first boundary edge, collecting the faces passed; `found`
+    // stays kUnset when the walk comes back to f. False on an infinite face (inconsistent
+    // regions: the slab fails).
+    auto walk = [&](bool clockwise, std::vector<FaceHandle>& passed, Level& found) {
+        FaceHandle cur = f;
+        int ci = i;
+        for (;;) {
+            const int e = clockwise ? cw(ci) : ccw(ci);  // edge (v, next vertex that way)
+            if (is_boundary(cur, e, k)) {
+                found = boundary_class(cur, e, k);
+                return true;
+            }
+            cur = cur->neighbor(e);
+            if (cdt.is_infinite(cur)) {
+                return false;
+            }
+            if (cur == f) {
+                return true;
+            }
+            ci = cur->index(v);
+            passed.push_back(cur);
+        }
+    };
+    std::vector<FaceHandle> cw_faces{f};
+    std::vector<FaceHandle> ccw_faces;
+    Level cw_class = kUnset;
+    Level ccw_class = kUnset;
+    if (!walk(true, cw_faces, cw_class)) {
+        return false;
+    }
+    if (cw_class == kUnset) {
+        // No boundary around v: a contour point inside the surface's domain (only where
+        // unlinked contours lie inside it). Lift it like a Steiner point.
+        make_steiner(v, k);
+        f->info().corner[std::size_t(i)] = kBetween;
+        return true;
+    }
+    if (!walk(false, ccw_faces, ccw_class)) {
+        return false;
+    }
+    // Wedge in order from the clockwise boundary to the counter-clockwise one.
+    std::vector<FaceHandle> wedge(cw_faces.rbegin(), cw_faces.rend());
+    wedge.insert(wedge.end(), ccw_faces.begin(), ccw_faces.end());
+    if (cw_class == ccw_class) {
+        for (FaceHandle w : wedge) {
+            w->info().corner[std::size_t(w->index(v))] = cw_class;
+        }
+        return true;
+    }
+    // Mixed: split at an inner edge (v, u) with u a Steiner point. Of those, the one where the
+    // wedge's faces best follow the interpolation height t = D_k / (D_k - D_k+1): faces before
+    // it use v at z_k, faces after it v at z_k+1; each face is charged its area times the mean
+    // squared difference between its height and t at four interior points. (The first such edge
+    // from the low side, the old choice, fanned v at z_k+1 over the low half of long strips:
+    // faces tilted backwards, a 1 px V-groove along the medial line.)
+    const bool low_first = cw_class == kLow;
+    if (!low_first) {
+        std::reverse(wedge.begin(), wedge.end());
+    }
+    // wedge[0] touches the low boundary edge. Inner edge j lies between wedge[j] and
+    // wedge[j + 1]; its far vertex is shared by both.
+    std::vector<std::size_t> candidates;
+    for (std::size_t j = 0; j + 1 < wedge.size(); ++j) {
+        const FaceHandle a = wedge[j];
+        const FaceHandle b = wedge[j + 1];
+        for (int m = 0; m < 3; ++m) {
+            const VertexHandle u = a->vertex(m);
+            if (u != v && b->has_vertex(u) && u->info().steiner >= 0) {
+                candidates.push_back(j);
+                break;
+            }
+        }
+    }
+    std::size_t split = wedge.size();
+    if (candidates.size() == 1) {
+        split = candidates[0];
+    } else if (!candidates.empty()) {
+        // Cost of each face with v low and with v high.
+        std::vector<std::array<double, 2>> cost(wedge.size());
+        for (std::size_t j = 0; j < wedge.size(); ++j) {
+            const FaceHandle w = wedge[j];
+            const int vi = w->index(v);
+            std::array<Vec2, 3> xy;
+            std::array<double, 3> h{};
+            for (int m = 0; m < 3; ++m) {
+                const VertexHandle u = w->vertex(m);
+                xy[std::size_t(m)] = to_vec(u->point());
+                const VertexInfo& info = u->info();
+                h[std::size_t(m)] = info.steiner >= 0 ? steiner_t_[std::size_t(info.steiner)]
+                                    : info.upper < 0  ? 0.0
+                                    : info.lower < 0  ? 1.0
+                                                      : 0.5;  // another crossing: unknown
+            }
+            const double area = 0.5 * std::abs(cross(xy[1] - xy[0], xy[2] - xy[0]));
+            for (int level = 0; level < 2; ++level) {
+                h[std::size_t(vi)] = level;
+                double sum = 0.0;
+                for (int sample = 0; sample < 4; ++sample) {
+                    // the centroid and the points (4, 1, 1) / 6 towards each corner
+                    std::array<double, 3> b{1.0 / 3, 1.0 / 3, 1.0 / 3};
+                    if (sample < 3) {
+                        b = {1.0 / 6, 1.0 / 6, 1.0 / 6};
+                        b[std::size_t(sample)] = 4.0 / 6;
+                    }
+                    const Vec2 q = b[0] * xy[0] + b[1] * xy[1] + b[2] * xy[2];
+                    const double face_t = b[0] * h[0] + b[1] * h[1] + b[2] * h[2];
+                    const double diff = face_t - height_t(to_point(q), k);
+                    sum += diff * diff;
+                }
+                cost[j][std::size_t(level)] = area * sum / 4.0;
+            }
+        }
+        // prefix sums: low cost of wedge[0..j], high cost of wedge[j+1..]
+        std::vector<double> low(wedge.size() + 1, 0.0);
+        std::vector<double> high(wedge.size() + 1, 0.0);
+        for (std::size_t j = 0; j < wedge.size(); ++j) {
+            low[j + 1] = low[j] + cost[j][0];
+        }
+        for (std::size_t j = wedge.size(); j-- > 0;) {
+            high[j] = high[j + 1] + cost[j][1];
+        }
+        double best = std::numeric_limits<double>::infinity();
+        for (const std::size_t j : candidates) {
+            const double c = low[j + 1] + high[j + 1];
+            if (c < best) {
+                best = c;
+                split = j;
+            }
+        }
+    }
+    if (split == wedge.size()) {
+        const FaceHandle mid = wedge[wedge.size() / 2];
+        refine.push_back(CGAL::centroid(cdt.triangle(mid)));
+        return false;
+    }
+    for (std::size_t j = 0; j < wedge.size(); ++j) {
+        wedge[j]->info().corner[std::size_t(wedge[j]->index(v))] = j <= split ? kLow : kHigh;
+    }
+    return true;
+}
+
+}  // namespace strata::detail
