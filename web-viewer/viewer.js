@@ -532,7 +532,8 @@ function frame(now) {
     // huge cuts) loading then keeps most of the main thread. (The cost used to be measured only
     // between consecutive drawn frames, which this throttle makes rare: it stayed at 16 ms, and
     // FreeSurfer drew a frame per arriving chunk, 18 s of its 28 s settling in readbacks.)
-    if (cutChanged && (strata?.idle || now - lastRender >= Math.min(2000, 4 * renderInterval))) dirty = true;
+    // (At most every 10 s: a cap of 2 s drew FreeSurfer's 2 s frames back to back while loading.)
+    if (cutChanged && (strata?.idle || now - lastRender >= Math.min(10000, 4 * renderInterval))) dirty = true;
     if (lastFrame > 0) tickTimes.push(now - lastFrame);
     if (tickTimes.length > 20000) tickTimes.splice(0, tickTimes.length - 20000);
     if (dirty) {
