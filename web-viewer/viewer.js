@@ -81,9 +81,10 @@ window.addEventListener('resize', () => {
 // ------------------------------------------------------------------------------------------------
 // settings
 
-// tau 2 px by measurement (docs/format.md, "The viewer's default tau"): on the framed torso the
-// settled silhouettes differ from the full-resolution ones by 0.34 px on average, with 36 % of
-// the file's bytes (83 % at 1 px, where they differ by 0.17 px)
+// tau 2 px by measurement (docs/format.md, "Default tau"; web-viewer/bench/tau-look.mjs): on the
+// framed torso the settled silhouettes differ from the full-resolution ones by 0.61 px on average,
+// with 27 % of the file's bytes (69 % at 1 px, 0.36 px); FreeSurfer fetches 94-100 % of its file
+// at 1-1.5 px (its full resolution's bound projects to 2.1 px), 75 % at 2 px
 const settings = {
     tau: 2,
     budget: 2e6,
