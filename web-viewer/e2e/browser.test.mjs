@@ -73,36 +73,40 @@ test('the viewer streams, refines and coarsens the model in headless Chromium', 
                     const drawnPosition = geometry.getAttribute('position').array;
                     const drawnNormal = geometry.getAttribute('normal').array;
                     c.computeNormals(c.drawn, null);
-                    // the drawn clusters' triangles in order, as points (x, y, z) with their fresh normals
-                    let n = 0;
+                    // the drawn clusters' triangles (as position triples, any order) and the fresh
+                    // normal at each position (welded: one per position)
+                    const key = (a, p) => `${a[p]},${a[p + 1]},${a[p + 2]}`;
+                    const fresh = new Map();
+                    const expected = [];
                     for (const k of c.drawn) {
                         const { chunk, range } = c.parts[k];
-                        for (let i = range[0]; i < range[1]; ++i, ++n) {
-                            const p = 3 * chunk.index[i];
-                            const q = 3 * drawnIndex[n];
-                            const a = chunk.positions;
-                            if (
-                                a[p] !== drawnPosition[q] ||
-                                a[p + 1] !== drawnPosition[q + 1] ||
-                                a[p + 2] !== drawnPosition[q + 2]
-                            ) {
-                                problems.push(`${c.name}: point ${n} of the draw geometry is not cluster ${k}'s`);
-                                break;
-                            }
-                            const b = chunk.normals;
+                        for (let i = range[0]; i < range[1]; i += 3) {
+                            const t = [0, 1, 2].map((j) => 3 * chunk.index[i + j]);
+                            for (const p of t) fresh.set(key(chunk.positions, p), chunk.normals.subarray(p, p + 3));
+                            expected.push(t.map((p) => key(chunk.positions, p)).join('|'));
+                        }
+                    }
+                    const drawnTriangles = [];
+                    for (let i = 0; i < drawnIndex.length; i += 3) {
+                        const t = [0, 1, 2].map((j) => 3 * drawnIndex[i + j]);
+                        drawnTriangles.push(t.map((q) => key(drawnPosition, q)).join('|'));
+                        for (const q of t) {
+                            const b = fresh.get(key(drawnPosition, q));
+                            if (b === undefined) continue; // a triangle not in the cut: reported below
                             worst = Math.max(
                                 worst,
-                                Math.hypot(
-                                    b[p] - drawnNormal[q],
-                                    b[p + 1] - drawnNormal[q + 1],
-                                    b[p + 2] - drawnNormal[q + 2],
-                                ),
+                                Math.hypot(b[0] - drawnNormal[q], b[1] - drawnNormal[q + 1], b[2] - drawnNormal[q + 2]),
                             );
                             ++compared;
                         }
                     }
-                    if (n !== drawnIndex.length)
-                        problems.push(`${c.name}: ${drawnIndex.length} indices drawn, the cut has ${n}`);
+                    expected.sort();
+                    drawnTriangles.sort();
+                    if (expected.length !== drawnTriangles.length || expected.some((t, i) => t !== drawnTriangles[i])) {
+                        problems.push(
+                            `${c.name}: the draw geometry's ${drawnTriangles.length} triangles are not the cut's ${expected.length}`,
+                        );
+                    }
                 }
                 return { worst, compared, problems, incremental: window.strataViewer.strata.stats.normalsIncremental };
             });
