@@ -32,6 +32,8 @@ using PieceAttachment = std::pair<std::uint32_t, std::uint32_t>;
 constexpr double kPieceFitPx = 0.01;
 /// ... or are this short (px).
 constexpr double kShortestPiecePx = 1.0 / 16.0;
+/// No triangle (yet).
+constexpr std::uint32_t kNoTriangle = 0xffffffffu;
 
 using detail::TriangleHash;
 
@@ -367,8 +369,38 @@ private:
             worst = std::max(worst, piece_distance_px(piece, corners(best_triangle)));
         }
         mesh_.full_resolution_error_px = std::max(mesh_.full_resolution_error_px, worst);
+        attach_vertices(triangles, attached);
         std::sort(attached.begin(), attached.end());
         return attached;
+    }
+
+    /// Attaches every vertex of `triangles` that is not a contour vertex (domes and stack-end
+    /// extensions beyond the end slices, vertices between slices, points inside planar caps) as a
+    /// piece of its own to a triangle of its star, appending to `pieces_` and `attached`: no
+    /// coarser level may flatten a dome, which the slice sections do not see, by more than its
+    /// bound. (The contour vertices are ends of the contour pieces already.)
+    void attach_vertices(const std::vector<Tri>& triangles,
+                         std::vector<PieceAttachment>& attached) {
+        std::unordered_map<Vec3, char, PositionHash> contour_vertex;
+        for (const ContourPiece& piece : meter_.contour_pieces()) {
+            contour_vertex.emplace(piece.a, 0);
+            contour_vertex.emplace(piece.b, 0);
+        }
+        std::vector<std::uint32_t> star(mesh_.positions.size(), kNoTriangle);
+        for (std::uint32_t t = 0; t < triangles.size(); ++t) {
+            for (const std::uint32_t v : triangles[t]) {
+                if (star[v] == kNoTriangle) {
+                    star[v] = t;
+                }
+            }
+        }
+        for (std::uint32_t v = 0; v < star.size(); ++v) {
+            const Vec3& p = mesh_.positions[v];
+            if (star[v] != kNoTriangle && !contour_vertex.contains(p)) {
+                attached.emplace_back(star[v], std::uint32_t(pieces_.size()));
+                pieces_.push_back({p, p, 0.0});
+            }
+        }
     }
 
     /// Position of every triangle in `triangles`.

@@ -42,8 +42,9 @@ struct MultiresGroup {
     std::vector<std::uint32_t> produced;  ///< coarser clusters
     /// Error bound (px, slice space) of the produced clusters against the original contours, in
     /// both directions (their slice sections to the contours, and the contour pieces attached to
-    /// them to their triangles), made monotone: never below the error of any group that produced
-    /// a consumed cluster.
+    /// them to their triangles), and of the full-resolution vertices attached to them (domes
+    /// included) to their triangles, made monotone: never below the error of any group that
+    /// produced a consumed cluster.
     double error_px = 0.0;
     /// Contains the produced and consumed clusters and the bounds of every group below, so a
     /// projected error (error / distance to the sphere) is monotone along the DAG too.
@@ -126,7 +127,10 @@ struct MultiresOptions {
 /// triangle it could be drawn with. `full_resolution_error_px` is the bound the caller declares
 /// for the surface itself (the contour simplification tolerance achieved, e.g. 0.5 px); it is
 /// raised to the distance of the contour pieces (SliceErrorMeter::contour_pieces) from the
-/// full-resolution triangles they are attached to, where that is larger.
+/// full-resolution triangles they are attached to, where that is larger. Every other vertex of
+/// the surface is attached like a piece of length 0, so every cut lies within its bound of every
+/// full-resolution vertex (a dome beyond the end slices, which no slice section sees, is not
+/// flattened by more than the bound).
 /// Deterministic. \throw Error{InvalidInput} when the surface is not an oriented manifold.
 MultiresMesh build_multires_mesh(const TriMesh& surface,
                                  const SliceErrorMeter& meter,

@@ -170,29 +170,18 @@ async function checkFile(deps, file) {
                         `file states ${node.extras.bounding_radius_mm} mm`,
                 );
             } else {
-                // The bound holds at the slice planes (docs/architecture.md, section 3); beyond an
-                // object's end slices the finest level carries a dome (at most 0.75 d high) or a
-                // d/2 extension that the data do not show, which a coarser level may flatten. So
-                // along the slice normal a box may also differ by that reach, elsewhere only by the
-                // bound.
-                const reach = (0.75 * node.extras.spacing_mm[2]) / 1000;
-                const normal = new THREE.Vector3(0, 0, 1).transformDirection(object.matrixWorld);
-                const over = ['x', 'y', 'z'].map((k) => {
-                    const slack = node.extras.error_mm / 1000 + Math.abs(normal[k]) * reach + 1e-9;
-                    const off = Math.max(
+                const slack = node.extras.error_mm / 1000 + 1e-9;
+                const off = Math.max(
+                    ...['x', 'y', 'z'].flatMap((k) => [
                         Math.abs(box.min[k] - finestBox.min[k]),
                         Math.abs(box.max[k] - finestBox.max[k]),
-                    );
-                    return { k, off, slack };
-                });
-                for (const { k, off, slack } of over.filter((o) => o.off > o.slack)) {
-                    expect(
-                        false,
-                        `${file}: ${node.name}'s box is ${(off * 1000).toFixed(3)} mm off the finest level's in ` +
-                            `${k}, more than its bound ${node.extras.error_mm} mm plus the end-cap reach ` +
-                            `${(Math.abs(normal[k]) * reach * 1000).toFixed(3)} mm along the slices' normal`,
-                    );
-                }
+                    ]),
+                );
+                expect(
+                    off <= slack,
+                    `${file}: ${node.name}'s box is ${(off * 1000).toFixed(3)} mm off the finest level's, ` +
+                        `more than its bound ${node.extras.error_mm} mm`,
+                );
             }
         }
     }

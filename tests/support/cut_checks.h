@@ -57,7 +57,8 @@ inline void expect_embedded_surface(const TriMesh& mesh, const std::vector<int>&
 
 /// Expects `mesh`, a cut of the model of surface `i` of `r` declaring `declared_px`, to be a
 /// closed oriented manifold with the sorted component genera `genera`, positive volume and no
-/// self-intersection (exact), and within `declared_px` of the original contours by the oracle.
+/// self-intersection (exact), within `declared_px` of the original contours by the oracle, and
+/// within it of every vertex of the full-resolution surface `r.surfaces[i]`.
 /// Returns the oracle's measurement.
 inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
                                        const Reconstruction& r,
@@ -73,6 +74,10 @@ inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
         << "section " << measured.max_section_px << " px, cap " << measured.max_cap_px
         << " px, worst on slice " << measured.worst_slice << " at (" << measured.worst_point.x
         << ", " << measured.worst_point.y << ")";
+    // and every vertex of the full-resolution surface, domes beyond the end slices included
+    // (which no section sees), within the bound of the cut
+    EXPECT_LE(max_point_distance_px(r.surfaces[i].mesh.positions, mesh), declared_px + 1e-9)
+        << "a full-resolution vertex lies farther from the cut than its bound";
     return measured;
 }
 

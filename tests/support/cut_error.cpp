@@ -462,6 +462,18 @@ struct SliceWorst {
 
 }  // namespace
 
+double max_point_distance_px(const std::vector<Vec3>& points, const TriMesh& mesh) {
+    const MeshIndex index(mesh);
+    if (index.empty()) {
+        return points.empty() ? 0.0 : kInf;
+    }
+    double worst = 0.0;
+    for (const Vec3& p : points) {
+        worst = std::max(worst, index.nearest(p).first);
+    }
+    return worst;
+}
+
 std::vector<std::vector<Vec2>> original_polygons(const SliceContourSet& set, std::uint16_t label) {
     std::vector<std::vector<Vec2>> out;
     for (const Contour& contour : set.contours) {

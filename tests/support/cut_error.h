@@ -89,6 +89,11 @@ CutErrorReport measure_cut_error(const TriMesh& mesh,
                                  std::uint16_t label,
                                  const std::vector<double>& plane_z);
 
+/// Sup over `points` of their exact distance (3D) to the triangles of `mesh` (infinite when it
+/// has none): e.g. how far the full-resolution surface's vertices lie from a coarser cut, which
+/// bounds how much of a dome beyond the end slices (which no slice section sees) the cut lost.
+double max_point_distance_px(const std::vector<Vec3>& points, const TriMesh& mesh);
+
 /// The original polylines (Contour::points, closed) of every contour of `label` in `set`, in the
 /// set's order.
 std::vector<std::vector<Vec2>> original_polygons(const SliceContourSet& set, std::uint16_t label);
