@@ -1107,19 +1107,31 @@ export class StrataProgressivePlugin {
         return null;
     }
 
-    /// Starts the deferred setup at the second update (the first frame drew the base); true while
-    /// it is not done.
-    settingUp() {
+    /// Starts the deferred setup in a task after the first update (whose frame draws the base; in
+    /// software WebGL the next update comes 0.1-0.6 s later, which the setup used to wait for), and
+    /// once it is done selects and requests at once with the last update's arguments, rather than at
+    /// the next frame; true while the setup is not done.
+    settingUp(args) {
         if (this.setupState === 'done') return false;
-        if (this.setupState === 'waiting' && this.updates > 0) {
+        this.lastArgs = args;
+        if (this.setupState === 'waiting') {
             this.setupState = 'running';
-            this.setup(this.setupResult).finally(() => {
-                this.setupState = 'done';
-                this.setupResult = null;
-                this.changed = true;
-                this.resolveReady();
-                this.options.onChange?.(null, null);
-            });
+            setTimeout(() =>
+                this.setup(this.setupResult).finally(() => {
+                    this.setupState = 'done';
+                    this.setupResult = null;
+                    this.resolveReady();
+                    if (this.lastArgs && this.controllers.length > 0) {
+                        try {
+                            this.update(...this.lastArgs);
+                        } catch (error) {
+                            this.errors.push(`${error.message ?? error}`);
+                        }
+                    }
+                    this.changed = true; // the next update draws the objects' meshes
+                    this.options.onChange?.(null, null);
+                }),
+            );
         }
         ++this.updates;
         return true;
@@ -1207,7 +1219,7 @@ export class StrataProgressivePlugin {
     /// { triangles, maxErrorPx, maxError (m), budgetLimited, wanted, roiTriangles, changed (the
     /// picture differs from the last update's: an app rendering on demand renders) }.
     update(camera, viewportHeightPx, tauPx = 1, budget = Infinity, options = {}) {
-        if (this.settingUp()) {
+        if (this.settingUp([camera, viewportHeightPx, tauPx, budget, options])) {
             this.last = {
                 triangles: 0,
                 maxError: 0,
