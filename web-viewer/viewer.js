@@ -82,9 +82,10 @@ window.addEventListener('resize', () => {
 // settings
 
 // tau 2 px by measurement (docs/format.md, "Default tau"; web-viewer/bench/tau-look.mjs): on the
-// framed torso the settled silhouettes differ from the full-resolution ones by 0.61 px on average,
-// with 27 % of the file's bytes (69 % at 1 px, 0.36 px); FreeSurfer fetches 94-100 % of its file
-// at 1-1.5 px (its full resolution's bound projects to 2.1 px), 75 % at 2 px
+// framed torso the settled silhouettes differ from the full-resolution ones by 0.65 px on average,
+// with 30 % of the file's bytes (81 % at 1 px, 0.37 px); FreeSurfer and the TotalSegmentator
+// example fetch 94-100 % of their files at any tau up to 2 px (their full resolutions' bounds
+// project to 3.5 and 5.4 px)
 const settings = {
     tau: 2,
     budget: 2e6,
