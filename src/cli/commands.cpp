@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/build_summary.h"
+#include "cli/file_summaries.h"
 #include "cli/output_folder.h"
 #include "contours/contour_stats.h"
 #include "core/atomic_write.h"
@@ -239,12 +240,11 @@ double linear_to_srgb(double c) {
 }
 
 /// The end of `strata extract`: writes the cut objects (a glTF scene, or one mesh file with a
-/// label per triangle) and reports them (`objects`: one JSON entry per object).
+/// label per triangle) and reports them (`summary`, whose output and warnings it fills in).
 int write_extracted(const ExtractOptions& options,
                     const std::vector<SceneObject>& scene,
-                    const Json& objects,
+                    ExtractSummary summary,
                     const SceneInfo& info,
-                    double max_error_mm,
                     const Report& report) {
     TriMesh merged;
     for (const SceneObject& object : scene) {
@@ -264,23 +264,12 @@ int write_extracted(const ExtractOptions& options,
     } else {
         write_mesh(merged, options.output);
     }
-    const Json summary = {{"output", options.output.string()},
-                          {"max_error_mm", max_error_mm},
-                          {"objects", objects},
-                          {"warnings", warnings_json(report.warnings)}};
+    summary.output = options.output.string();
+    summary.warnings = report.warnings;
     if (options.output_options.json) {
-        std::cout << summary.dump(2) << '\n';
+        std::cout << extract_json(summary).dump(2) << '\n';
     } else if (!options.output_options.quiet) {
-        for (const Json& o : objects) {
-            char buf[256];
-            std::snprintf(
-                buf, sizeof(buf), "  %5lld  %-24s %8zu triangles (of %zu), error <= %.3g mm\n",
-                static_cast<long long>(o["label"].get<std::int64_t>()),
-                o["name"].get<std::string>().c_str(), o["triangles"].get<std::size_t>(),
-                o["full_resolution_triangles"].get<std::size_t>(), o["error_mm"].get<double>());
-            std::cout << buf;
-        }
-        std::cout << "wrote " << options.output.string() << '\n';
+        print_extract(std::cout, summary);
     }
     if (!options.output_options.quiet) {
         print_warnings(std::cerr, report.warnings);
@@ -331,7 +320,8 @@ int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
         }
     }
     std::vector<SceneObject> scene;
-    Json objects = Json::array();
+    ExtractSummary summary;
+    summary.max_error_mm = bound.value;
     Report report;
     for (std::size_t i = 0; i < file.objects.size(); ++i) {
         if (!wanted[i]) {
@@ -350,12 +340,8 @@ int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
         for (const MultiresCluster& c : object.model.clusters) {
             full += c.level == 0 ? c.triangles.size() : 0;
         }
-        objects.push_back({{"label", object.label},
-                           {"name", object.name},
-                           {"triangles", out.mesh.triangles.size()},
-                           {"full_resolution_triangles", full},
-                           {"error_mm", cut.error_px * 1000.0},
-                           {"closed_manifold", is_closed_manifold(check)}});
+        summary.objects.push_back({object.label, object.name, out.mesh.triangles.size(), full,
+                                   cut.error_px * 1000.0, std::nullopt, is_closed_manifold(check)});
         if (cut.error_px > max_error_m) {
             report.warn("extract", object.name,
                         "the full-resolution surface already has an error of " +
@@ -367,60 +353,35 @@ int extract_from_file(const ExtractOptions& options, const ErrorBound& bound) {
     SceneInfo info;
     info.source = options.input;
     info.generator = kGenerator;
-    return write_extracted(options, scene, objects, info, bound.value, report);
+    return write_extracted(options, scene, std::move(summary), info, report);
 }
 
 /// `strata info FILE.glb`: what a progressive file holds, per object and level.
 int info_of_file(const InfoOptions& options) {
     const ProgressiveFile file = read_progressive_gltf(options.input);
-    Json objects = Json::array();
+    FileInfo info{options.input, file.generator, file.total_bytes, {}};
     for (const ProgressiveFileObject& object : file.objects) {
-        Json levels = Json::array();
+        FileObjectInfo o{object.name,
+                         object.label,
+                         object.model.positions.size(),
+                         object.model.groups.size(),
+                         object.base_bytes,
+                         {}};
         for (std::uint32_t level = 0; level < level_count(object.model); ++level) {
             const MultiresCut cut = select_cut_at_level(object.model, level);
             std::size_t triangles = 0;
             for (const std::uint32_t c : cut.clusters) {
                 triangles += object.model.clusters[c].triangles.size();
             }
-            levels.push_back({{"level", level},
-                              {"triangles", triangles},
-                              {"clusters", cut.clusters.size()},
-                              {"error_mm", cut.error_px * 1000.0},
-                              {"chunk_bytes",
-                               level < object.level_bytes.size() ? object.level_bytes[level] : 0}});
+            o.levels.push_back({level, triangles, cut.clusters.size(), cut.error_px * 1000.0,
+                                level < object.level_bytes.size() ? object.level_bytes[level] : 0});
         }
-        objects.push_back({{"name", object.name},
-                           {"label", object.label},
-                           {"vertices", object.model.positions.size()},
-                           {"groups", object.model.groups.size()},
-                           {"base_bytes", object.base_bytes},
-                           {"levels", levels}});
+        info.objects.push_back(std::move(o));
     }
-    Json j = {{"file", options.input},
-              {"generator", file.generator},
-              {"total_bytes", file.total_bytes},
-              {"objects", objects}};
     if (options.output.json) {
-        std::cout << j.dump(2) << '\n';
-        return 0;
-    }
-    if (options.output.quiet) {
-        return 0;
-    }
-    std::cout << options.input << ": progressive glTF, " << file.total_bytes << " bytes, "
-              << file.objects.size() << " object(s), generator '" << file.generator << "'\n";
-    for (const Json& o : objects) {
-        std::cout << "  " << o["name"].get<std::string>() << " (label " << o["label"] << "): base "
-                  << o["base_bytes"] << " bytes, " << o["groups"] << " splits\n";
-        std::cout << "    level  triangles  clusters  error mm  chunk bytes\n";
-        for (const Json& level : o["levels"]) {
-            char buf[160];
-            std::snprintf(buf, sizeof(buf), "    %5u  %9zu  %8zu  %8.3f  %11zu\n",
-                          level["level"].get<unsigned>(), level["triangles"].get<std::size_t>(),
-                          level["clusters"].get<std::size_t>(), level["error_mm"].get<double>(),
-                          level["chunk_bytes"].get<std::size_t>());
-            std::cout << buf;
-        }
+        std::cout << file_info_json(info).dump(2) << '\n';
+    } else if (!options.output.quiet) {
+        print_file_info(std::cout, info);
     }
     return 0;
 }
@@ -822,20 +783,18 @@ int run_extract(const ExtractOptions& options) {
     const double mm_per_px = error_mm_per_px(stack);
     const double max_error_px = bound.in_pixels ? bound.value : bound.value / mm_per_px;
     std::vector<SceneObject> scene;
-    Json objects = Json::array();
+    ExtractSummary summary;
+    summary.max_error_mm = max_error_px * mm_per_px;
     for (std::size_t i = 0; i < result.surfaces.size(); ++i) {
         const MultiresMesh& model = result.models[i];
         const MultiresCut cut = select_cut_by_error(model, max_error_px);
         SceneObject object = scene_object(stack, result.surfaces[i].label);
         object.mesh = surface_to_world(stack, result.slice_spacing_px, cut_mesh(model, cut));
         const MeshReport check = check_mesh(object.mesh);
-        objects.push_back({{"label", object.label},
-                           {"name", object.name},
-                           {"triangles", object.mesh.triangles.size()},
-                           {"full_resolution_triangles", result.surfaces[i].mesh.triangles.size()},
-                           {"error_mm", cut.error_px * mm_per_px},
-                           {"error_px", cut.error_px},
-                           {"closed_manifold", is_closed_manifold(check)}});
+        summary.objects.push_back({object.label, object.name, object.mesh.triangles.size(),
+                                   result.surfaces[i].mesh.triangles.size(),
+                                   cut.error_px * mm_per_px, cut.error_px,
+                                   is_closed_manifold(check)});
         if (cut.error_px > max_error_px) {
             report.warn("extract", object.name,
                         "the full-resolution surface already has an error of " +
@@ -849,7 +808,7 @@ int run_extract(const ExtractOptions& options) {
     const Vec3 spacing = stack.spacing_mm();
     info.spacing_mm = {spacing.x, spacing.y, spacing.z};
     info.generator = kGenerator;
-    return write_extracted(options, scene, objects, info, max_error_px * mm_per_px, report);
+    return write_extracted(options, scene, std::move(summary), info, report);
 }
 
 int run_phantom(const PhantomCommandOptions& options) {
@@ -903,69 +862,16 @@ int info_of_contours(const InfoOptions& options) {
     Report report;
     const PlanarContours contours = clean_planar_contours(read_raw_contours(options.input, ""),
                                                           ContourCleaningOptions{}, report);
-    Json objects = Json::array();
-    for (const ContourObject& o : contours.objects) {
-        std::size_t count = 0;
-        for (const ContourPlane& plane : o.planes) {
-            count += plane.contours.size();
-        }
-        Json j = {{"number", o.number},
-                  {"name", o.name},
-                  {"interpreted_type", o.interpreted_type},
-                  {"color_srgb", {o.color[0], o.color[1], o.color[2]}},
-                  {"planes", o.planes.size()},
-                  {"contours", count},
-                  {"markers", o.markers.size()}};
-        if (!o.planes.empty()) {
-            j["plane_range_mm"] = {o.planes.front().w, o.planes.back().w};
-        }
-        objects.push_back(j);
-    }
-    Json j = {{"source", contours.source},
-              {"frame", contours.frame},
-              {"plane_normal", {contours.normal.x, contours.normal.y, contours.normal.z}},
-              {"structures", objects},
-              {"warnings", warnings_json(report.warnings)}};
-    if (contours.reference) {
-        const PlaneGrid& g = *contours.reference;
-        j["reference_grid"] = {
-            {"columns", g.columns}, {"rows", g.rows}, {"pixel_mm", {g.pixel_mm[0], g.pixel_mm[1]}}};
-    }
+    ContoursInfo info = summarize_contours(contours);
+    info.warnings = report.warnings;
     if (options.output.json) {
-        std::cout << j.dump(2) << '\n';
+        std::cout << contours_info_json(info).dump(2) << '\n';
         return 0;
     }
     if (options.output.quiet) {
         return 0;
     }
-    std::cout << "input:   " << contours.source << " (planar contours, frame " << contours.frame
-              << ")\n";
-    std::cout << "normal:  " << format_vec(contours.normal) << '\n';
-    if (contours.reference) {
-        std::cout << "grid:    " << contours.reference->columns << " x " << contours.reference->rows
-                  << ", " << contours.reference->pixel_mm[0] << " x "
-                  << contours.reference->pixel_mm[1] << " mm pixels (reference CT)\n";
-    }
-    std::cout << "structures: " << contours.objects.size() << '\n';
-    for (const Json& o : objects) {
-        char buf[256];
-        std::snprintf(
-            buf, sizeof(buf), "  %5d  %-28s  #%02x%02x%02x  %-10s %4zu planes  %5zu contours",
-            o["number"].get<int>(), o["name"].get<std::string>().c_str(),
-            o["color_srgb"][0].get<int>(), o["color_srgb"][1].get<int>(),
-            o["color_srgb"][2].get<int>(), o["interpreted_type"].get<std::string>().c_str(),
-            o["planes"].get<std::size_t>(), o["contours"].get<std::size_t>());
-        std::cout << buf;
-        if (o.contains("plane_range_mm")) {
-            std::snprintf(buf, sizeof(buf), "  %.2f..%.2f mm", o["plane_range_mm"][0].get<double>(),
-                          o["plane_range_mm"][1].get<double>());
-            std::cout << buf;
-        }
-        if (o["markers"].get<std::size_t>() > 0) {
-            std::cout << "  " << o["markers"].get<std::size_t>() << " markers";
-        }
-        std::cout << '\n';
-    }
+    print_contours_info(std::cout, info);
     print_warnings(std::cerr, report.warnings);
     return 0;
 }
