@@ -683,29 +683,36 @@ std::uint64_t data_bytes_left(std::istream& in, const std::filesystem::path& fil
     return size > static_cast<std::uint64_t>(at) ? size - static_cast<std::uint64_t>(at) : 0;
 }
 
-}  // namespace
+// ---------------------------------------------------------------------------------------------
+// The steps of read_nrrd, in the order it checks the header's fields (a header with several
+// faults is refused for the first of them, always the same one).
 
-SliceStack read_nrrd(const std::filesystem::path& file,
-                     const ReadOptions& options,
-                     Report& report) {
-    const std::string where = file.filename().string();
-    std::ifstream in(file, std::ios::binary);
-    if (!in) {
-        throw Error(ErrorCode::Io,
-                    where + ": cannot open " + file.string() + ": " + std::strerror(errno));
-    }
-    const NrrdHeader header = read_header(in, where, report);
+enum class Encoding { Raw, Gzip, Ascii };
 
-    // Basic fields.
+/// How the voxels are stored: the fields 'dimension', 'type', 'encoding', 'endian' and 'sizes'.
+struct Storage {
+    std::size_t dimension = 0;
+    std::string type_name;
+    ScalarType type{};
+    std::size_t value_bytes = 0;
+    std::string encoding_name;
+    Encoding encoding = Encoding::Raw;
+    bool swap = false;  ///< the file's byte order is not this machine's
+    std::vector<std::uint64_t> sizes;
+};
+
+Storage parse_storage(const NrrdHeader& header, const std::string& where) {
+    Storage storage;
     const auto dimension_value = parse_int(require_field(header, "dimension", where));
     if (!dimension_value || *dimension_value < 1 || *dimension_value > 16) {
         throw Error(ErrorCode::InvalidInput, where + ": header field 'dimension' is \"" +
                                                  require_field(header, "dimension", where) +
                                                  "\", expected 1..16");
     }
-    const auto dimension = static_cast<std::size_t>(*dimension_value);
+    storage.dimension = static_cast<std::size_t>(*dimension_value);
 
-    const std::string& type_name = require_field(header, "type", where);
+    storage.type_name = require_field(header, "type", where);
+    const std::string& type_name = storage.type_name;
     if (type_name == "block") {
         throw Error(ErrorCode::Unsupported,
                     where + ": type 'block' is not supported, expected an integer or real type");
@@ -717,16 +724,17 @@ SliceStack read_nrrd(const std::filesystem::path& file,
                         "\", expected a NRRD scalar type (uchar, short, ushort, int, uint, "
                         "longlong, ulonglong, float, double, ...)");
     }
-    const std::size_t value_bytes = scalar_bytes(*type);
+    storage.type = *type;
+    storage.value_bytes = scalar_bytes(*type);
 
-    const std::string& encoding_name = require_field(header, "encoding", where);
-    enum class Encoding { Raw, Gzip, Ascii } encoding;
+    storage.encoding_name = require_field(header, "encoding", where);
+    const std::string& encoding_name = storage.encoding_name;
     if (encoding_name == "raw") {
-        encoding = Encoding::Raw;
+        storage.encoding = Encoding::Raw;
     } else if (encoding_name == "gzip" || encoding_name == "gz") {
-        encoding = Encoding::Gzip;
+        storage.encoding = Encoding::Gzip;
     } else if (encoding_name == "ascii" || encoding_name == "text" || encoding_name == "txt") {
-        encoding = Encoding::Ascii;
+        storage.encoding = Encoding::Ascii;
     } else if (encoding_name == "bzip2" || encoding_name == "bz2" || encoding_name == "hex" ||
                encoding_name == "zrl") {
         throw Error(ErrorCode::Unsupported, where + ": encoding '" + encoding_name +
@@ -736,38 +744,47 @@ SliceStack read_nrrd(const std::filesystem::path& file,
                                                  "', expected raw, gzip or ascii");
     }
 
-    bool swap = false;
     if (const std::string* endian = find_field(header, "endian")) {
         if (*endian != "little" && *endian != "big") {
             throw Error(ErrorCode::InvalidInput, where + ": header field 'endian' is \"" + *endian +
                                                      "\", expected little or big");
         }
-        swap = (*endian == "big") != (std::endian::native == std::endian::big);
-    } else if (value_bytes > 1 && encoding != Encoding::Ascii) {
+        storage.swap = (*endian == "big") != (std::endian::native == std::endian::big);
+    } else if (storage.value_bytes > 1 && storage.encoding != Encoding::Ascii) {
         throw Error(ErrorCode::InvalidInput,
                     where + ": header field 'endian' is missing, expected it for type '" +
                         type_name + "' with encoding '" + encoding_name + "'");
     }
 
-    // Sizes and axes.
     const std::vector<std::string> size_words =
-        axis_values(require_field(header, "sizes", where), "sizes", dimension, where);
-    std::vector<std::uint64_t> sizes;
-    for (std::size_t axis = 0; axis < dimension; ++axis) {
+        axis_values(require_field(header, "sizes", where), "sizes", storage.dimension, where);
+    for (std::size_t axis = 0; axis < storage.dimension; ++axis) {
         const auto size = parse_int(size_words[axis]);
         if (!size || *size < 0) {
             throw Error(ErrorCode::InvalidInput,
                         where + ": header field 'sizes' has \"" + size_words[axis] + "\" on axis " +
                             std::to_string(axis) + ", expected a positive integer");
         }
-        sizes.push_back(static_cast<std::uint64_t>(*size));
+        storage.sizes.push_back(static_cast<std::uint64_t>(*size));
     }
+    return storage;
+}
 
+/// The world of the axes: 'space' or 'space dimension', then 'space directions' per axis.
+struct WorldAxes {
     std::optional<Space> space;
-    std::size_t space_dimension = 0;
+    std::size_t space_dimension = 0;              ///< 0 without a world space, else 3
+    bool has_directions = false;                  ///< 'space directions' is given
+    std::vector<std::optional<Vec3>> directions;  ///< per axis; none for a non-spatial axis
+};
+
+WorldAxes parse_world_axes(const NrrdHeader& header,
+                           std::size_t dimension,
+                           const std::string& where) {
+    WorldAxes world;
     if (const std::string* name = find_field(header, "space")) {
-        space = parse_space(*name);
-        if (!space) {
+        world.space = parse_space(*name);
+        if (!world.space) {
             if (name->find("time") != std::string::npos || *name == "RAST" || *name == "LAST" ||
                 *name == "LPST") {
                 throw Error(ErrorCode::Unsupported,
@@ -780,7 +797,7 @@ SliceStack read_nrrd(const std::filesystem::path& file,
                             "', expected left-posterior-superior (LPS), right-anterior-superior "
                             "(RAS), left-anterior-superior (LAS), scanner-xyz or 3D-*-handed");
         }
-        space_dimension = 3;
+        world.space_dimension = 3;
         if (find_field(header, "space dimension") != nullptr) {
             throw Error(ErrorCode::InvalidInput,
                         where +
@@ -797,14 +814,15 @@ SliceStack read_nrrd(const std::filesystem::path& file,
             throw Error(ErrorCode::Unsupported,
                         where + ": space dimension " + *value + ", expected 3 (a 3D world)");
         }
-        space_dimension = 3;
-        space = Space{"none", {1, 1, 1}, false};
+        world.space_dimension = 3;
+        world.space = Space{"none", {1, 1, 1}, false};
     }
 
-    std::vector<std::optional<Vec3>> directions(dimension);
+    world.directions.resize(dimension);
     const std::string* directions_field = find_field(header, "space directions");
+    world.has_directions = directions_field != nullptr;
     if (directions_field != nullptr) {
-        if (space_dimension == 0) {
+        if (world.space_dimension == 0) {
             throw Error(ErrorCode::InvalidInput,
                         where +
                             ": header field 'space directions' without 'space' or 'space "
@@ -816,34 +834,28 @@ SliceStack read_nrrd(const std::filesystem::path& file,
             if (words[axis] == "none") {
                 continue;
             }
-            const auto v = parse_vector(words[axis], space_dimension);
+            const auto v = parse_vector(words[axis], world.space_dimension);
             if (!v) {
                 throw Error(ErrorCode::InvalidInput,
                             where + ": header field 'space directions' has \"" + words[axis] +
                                 "\" on axis " + std::to_string(axis) +
                                 ", expected none or a vector (x,y,z) of finite numbers");
             }
-            directions[axis] = Vec3{(*v)[0], (*v)[1], (*v)[2]};
+            world.directions[axis] = Vec3{(*v)[0], (*v)[1], (*v)[2]};
         }
     }
+    return world;
+}
 
-    std::vector<std::string> kinds;
-    if (const std::string* value = find_field(header, "kinds")) {
-        kinds = axis_values(*value, "kinds", dimension, where);
-    }
-
-    // Spatial axes: those with a direction, else those of a spatial kind, else all.
-    std::vector<std::size_t> spatial;
-    for (std::size_t axis = 0; axis < dimension; ++axis) {
-        const bool is_spatial = directions_field != nullptr ? directions[axis].has_value()
-                                : !kinds.empty()            ? is_spatial_kind(kinds[axis])
-                                                            : true;
-        if (is_spatial) {
-            spatial.push_back(axis);
-        }
-    }
-    const std::map<int, Segment> segments = parse_segments(header, where);
-    for (std::size_t axis = 0; axis < dimension; ++axis) {
+/// Refuses a non-spatial axis of more than one sample (a 4D volume, a layered segmentation),
+/// then a volume of other than 2 or 3 spatial axes.
+void check_axes(const Storage& storage,
+                const std::vector<std::size_t>& spatial,
+                const std::vector<std::string>& kinds,
+                bool is_segmentation,
+                const std::string& where) {
+    const std::vector<std::uint64_t>& sizes = storage.sizes;
+    for (std::size_t axis = 0; axis < storage.dimension; ++axis) {
         if (std::find(spatial.begin(), spatial.end(), axis) != spatial.end()) {
             continue;
         }
@@ -854,7 +866,7 @@ SliceStack read_nrrd(const std::filesystem::path& file,
         }
         if (sizes[axis] > 1) {
             const std::string kind = kinds.empty() ? "no kind" : "kind '" + kinds[axis] + "'";
-            if (!segments.empty()) {
+            if (is_segmentation) {
                 throw Error(ErrorCode::Unsupported,
                             where + ": segmentation with " + std::to_string(sizes[axis]) +
                                 " layers (4D seg.nrrd, overlapping segments on axis " +
@@ -873,12 +885,16 @@ SliceStack read_nrrd(const std::filesystem::path& file,
                     where + ": " + std::to_string(spatial.size()) +
                         " spatial axes, expected 2 (one slice) or 3 (a label volume)");
     }
-    const std::uint64_t width = sizes[spatial[0]];
-    const std::uint64_t height = sizes[spatial[1]];
-    const std::uint64_t depth = spatial.size() == 3 ? sizes[spatial[2]] : 1;
-    check_stack_dimensions(width, height, depth, where, options.max_bytes);
+}
 
-    // World: directions (or spacings) and origin, converted to LPS millimetres.
+/// Voxel index -> patient LPS mm of the `spatial` axes: the directions (or the spacings), the
+/// unit and the origin, in the space's axes turned to LPS.
+Affine3 index_to_lps(const NrrdHeader& header,
+                     const Storage& storage,
+                     const WorldAxes& world,
+                     const std::vector<std::size_t>& spatial,
+                     const std::string& where,
+                     Report& report) {
     double unit_mm = 1.0;
     if (const std::string* value = find_field(header, "space units")) {
         for (const std::string& unit : split_axis_values(*value, "space units", where)) {
@@ -893,10 +909,10 @@ SliceStack read_nrrd(const std::filesystem::path& file,
         }
     }
     Vec3 spacings{1, 1, 1};
-    if (directions_field == nullptr) {
+    if (!world.has_directions) {
         if (const std::string* value = find_field(header, "spacings")) {
             const std::vector<std::string> words =
-                axis_values(*value, "spacings", dimension, where);
+                axis_values(*value, "spacings", storage.dimension, where);
             for (std::size_t s = 0; s < spatial.size(); ++s) {
                 const auto parsed = parse_double(words[spatial[s]]);
                 if (!parsed) {
@@ -915,8 +931,8 @@ SliceStack read_nrrd(const std::filesystem::path& file,
     Affine3 affine;
     for (std::size_t s = 0; s < spatial.size(); ++s) {
         Vec3 column{};
-        if (directions_field != nullptr) {
-            column = *directions[spatial[s]];
+        if (world.has_directions) {
+            column = *world.directions[spatial[s]];
         } else {
             column[static_cast<int>(s)] = spacings[static_cast<int>(s)];
         }
@@ -933,13 +949,13 @@ SliceStack read_nrrd(const std::filesystem::path& file,
         }
     }
     if (const std::string* value = find_field(header, "space origin")) {
-        if (space_dimension == 0) {
+        if (world.space_dimension == 0) {
             throw Error(ErrorCode::InvalidInput,
                         where +
                             ": header field 'space origin' without 'space' or 'space "
                             "dimension', expected one of them first");
         }
-        const auto origin = parse_vector(*value, space_dimension);
+        const auto origin = parse_vector(*value, world.space_dimension);
         if (!origin) {
             throw Error(ErrorCode::InvalidInput,
                         where + ": header field 'space origin' is \"" + *value +
@@ -949,51 +965,164 @@ SliceStack read_nrrd(const std::filesystem::path& file,
             affine.translation[r] = (*origin)[r] * unit_mm;
         }
     }
-    const std::string frame = space ? space->frame : "none";
-    if (space) {
+    if (world.space) {
         for (int r = 0; r < 3; ++r) {
             for (int c = 0; c < 3; ++c) {
-                affine.linear[r][c] *= space->to_lps[r];
+                affine.linear[r][c] *= world.space->to_lps[r];
             }
-            affine.translation[r] *= space->to_lps[r];
+            affine.translation[r] *= world.space->to_lps[r];
         }
-        if (!space->is_patient && frame != "none") {
+        if (!world.space->is_patient && world.space->frame != "none") {
             report.warn("input", where,
-                        "space '" + frame + "' is not patient-based; its axes are used as LPS");
+                        "space '" + world.space->frame +
+                            "' is not patient-based; its axes are used as LPS");
         }
     }
     const Vec3 spacing{norm(affine.column(0)), norm(affine.column(1)), norm(affine.column(2))};
-    check_spacing(spacing,
-                  where + ": " + (directions_field != nullptr ? "space directions" : "spacings"));
+    check_spacing(spacing, where + ": " + (world.has_directions ? "space directions" : "spacings"));
     if (std::abs(affine.determinant()) <= 1e-12 * spacing.x * spacing.y * spacing.z) {
         throw Error(ErrorCode::InvalidInput,
                     where + ": space directions are coplanar, expected three independent axes");
     }
+    return affine;
+}
 
-    // Where the data is.
-    std::int64_t line_skip = 0;
+/// Where the voxels start in the data: 'line skip' lines, then 'byte skip' bytes (-1: the data
+/// are the last bytes of a raw file).
+struct Skips {
+    std::int64_t lines = 0;
+    std::int64_t bytes = 0;
+};
+
+Skips parse_skips(const NrrdHeader& header, const Storage& storage, const std::string& where) {
+    Skips skips;
     if (const std::string* value = find_field(header, "line skip")) {
         const auto n = parse_int(*value);
         if (!n || *n < 0) {
             throw Error(ErrorCode::InvalidInput, where + ": header field 'line skip' is \"" +
                                                      *value + "\", expected 0 or more lines");
         }
-        line_skip = *n;
+        skips.lines = *n;
     }
-    std::int64_t byte_skip = 0;
     if (const std::string* value = find_field(header, "byte skip")) {
         const auto n = parse_int(*value);
         if (!n || *n < -1) {
             throw Error(ErrorCode::InvalidInput, where + ": header field 'byte skip' is \"" +
                                                      *value + "\", expected -1 or more bytes");
         }
-        byte_skip = *n;
-        if (byte_skip == -1 && encoding != Encoding::Raw) {
+        skips.bytes = *n;
+        if (skips.bytes == -1 && storage.encoding != Encoding::Raw) {
             throw Error(ErrorCode::InvalidInput,
                         where + ": 'byte skip: -1' is only allowed with raw encoding, not '" +
-                            encoding_name + "'");
+                            storage.encoding_name + "'");
         }
     }
+    return skips;
+}
+
+/// Decodes the `count` voxels from `data` (the rest of `data_file`, after the header or in the
+/// detached file) into the decoder's stack.
+void decode_voxels(std::istream& data,
+                   const std::filesystem::path& data_file,
+                   const Storage& storage,
+                   const Skips& skips,
+                   std::uint64_t count,
+                   LabelDecoder& decoder,
+                   const std::string& data_where) {
+    const std::uint64_t expected = count * storage.value_bytes;
+    const std::int64_t byte_skip = skips.bytes;
+    skip_lines(data, skips.lines, data_where);
+    if (storage.encoding == Encoding::Gzip) {
+        Inflater inflater(data, data_where);
+        if (byte_skip > 0) {
+            std::vector<unsigned char> scratch(std::min<std::uint64_t>(byte_skip, kChunkBytes));
+            std::uint64_t skipped = 0;
+            while (skipped < static_cast<std::uint64_t>(byte_skip)) {
+                const std::size_t ask =
+                    std::min<std::uint64_t>(byte_skip - skipped, scratch.size());
+                const std::size_t got = inflater.read(scratch.data(), ask);
+                skipped += got;
+                if (got < ask) {
+                    throw Error(ErrorCode::InvalidInput,
+                                data_where + ": truncated: data ends within the " +
+                                    std::to_string(byte_skip) + " bytes of 'byte skip'");
+                }
+            }
+        }
+        decoder.decode_all(
+            [&](unsigned char* out, std::size_t size) { return inflater.read(out, size); }, "",
+            DataBound{data_bytes_left(data, data_file) * kMaxDeflateRatio, false});
+        inflater.check_trailer();
+        return;
+    }
+    if (byte_skip == -1) {
+        // note: the data are the last `expected` bytes of the file
+        data.seekg(0, std::ios::end);
+        const auto end = static_cast<std::uint64_t>(data.tellg());
+        if (end < expected) {
+            throw Error(ErrorCode::InvalidInput,
+                        data_where + ": truncated: expected " + std::to_string(expected) +
+                            " bytes of voxel data at the end of the file ('byte skip: -1'), "
+                            "found " +
+                            std::to_string(end));
+        }
+        data.seekg(static_cast<std::streamoff>(end - expected));
+    } else if (byte_skip > 0) {
+        data.ignore(byte_skip);
+        if (data.gcount() < byte_skip) {
+            throw Error(ErrorCode::InvalidInput, data_where + ": truncated: file ends within the " +
+                                                     std::to_string(byte_skip) +
+                                                     " bytes of 'byte skip'");
+        }
+    }
+    if (storage.encoding == Encoding::Ascii) {
+        decode_ascii(data, count, decoder, data_where);
+    } else {
+        decoder.decode_all([&](unsigned char* out,
+                               std::size_t size) { return read_raw(data, out, size, data_where); },
+                           "", DataBound{data_bytes_left(data, data_file), true});
+    }
+}
+
+}  // namespace
+
+SliceStack read_nrrd(const std::filesystem::path& file,
+                     const ReadOptions& options,
+                     Report& report) {
+    const std::string where = file.filename().string();
+    std::ifstream in(file, std::ios::binary);
+    if (!in) {
+        throw Error(ErrorCode::Io,
+                    where + ": cannot open " + file.string() + ": " + std::strerror(errno));
+    }
+    const NrrdHeader header = read_header(in, where, report);
+    const Storage storage = parse_storage(header, where);
+    const WorldAxes world = parse_world_axes(header, storage.dimension, where);
+
+    // Spatial axes: those with a direction, else those of a spatial kind, else all.
+    std::vector<std::string> kinds;
+    if (const std::string* value = find_field(header, "kinds")) {
+        kinds = axis_values(*value, "kinds", storage.dimension, where);
+    }
+    std::vector<std::size_t> spatial;
+    for (std::size_t axis = 0; axis < storage.dimension; ++axis) {
+        const bool is_spatial = world.has_directions ? world.directions[axis].has_value()
+                                : !kinds.empty()     ? is_spatial_kind(kinds[axis])
+                                                     : true;
+        if (is_spatial) {
+            spatial.push_back(axis);
+        }
+    }
+    const std::map<int, Segment> segments = parse_segments(header, where);
+    check_axes(storage, spatial, kinds, !segments.empty(), where);
+    const std::uint64_t width = storage.sizes[spatial[0]];
+    const std::uint64_t height = storage.sizes[spatial[1]];
+    const std::uint64_t depth = spatial.size() == 3 ? storage.sizes[spatial[2]] : 1;
+    check_stack_dimensions(width, height, depth, where, options.max_bytes);
+    const Affine3 affine = index_to_lps(header, storage, world, spatial, where, report);
+
+    // Where the data is.
+    const Skips skips = parse_skips(header, storage, where);
     std::ifstream detached;
     std::istream* data = &in;
     std::filesystem::path data_file = file;
@@ -1031,65 +1160,12 @@ SliceStack read_nrrd(const std::filesystem::path& file,
     stack.depth = static_cast<std::uint32_t>(depth);
     stack.index_to_world = affine;
     stack.source = file.string();
-    stack.source_frame = frame;
+    stack.source_frame = world.space ? world.space->frame : "none";
     if (!segments.empty()) {
         stack.label_table = segment_label_table(segments, where, report);
     }
-
-    const std::uint64_t count = width * height * depth;
-    const std::uint64_t expected = count * value_bytes;
-    LabelDecoder decoder(*type, swap, stack, data_where, options.progress);
-    skip_lines(*data, line_skip, data_where);
-    if (encoding == Encoding::Gzip) {
-        Inflater inflater(*data, data_where);
-        if (byte_skip > 0) {
-            std::vector<unsigned char> scratch(std::min<std::uint64_t>(byte_skip, kChunkBytes));
-            std::uint64_t skipped = 0;
-            while (skipped < static_cast<std::uint64_t>(byte_skip)) {
-                const std::size_t ask =
-                    std::min<std::uint64_t>(byte_skip - skipped, scratch.size());
-                const std::size_t got = inflater.read(scratch.data(), ask);
-                skipped += got;
-                if (got < ask) {
-                    throw Error(ErrorCode::InvalidInput,
-                                data_where + ": truncated: data ends within the " +
-                                    std::to_string(byte_skip) + " bytes of 'byte skip'");
-                }
-            }
-        }
-        decoder.decode_all(
-            [&](unsigned char* out, std::size_t size) { return inflater.read(out, size); }, "",
-            DataBound{data_bytes_left(*data, data_file) * kMaxDeflateRatio, false});
-        inflater.check_trailer();
-        return stack;
-    }
-    if (byte_skip == -1) {
-        // note: the data are the last `expected` bytes of the file
-        data->seekg(0, std::ios::end);
-        const auto end = static_cast<std::uint64_t>(data->tellg());
-        if (end < expected) {
-            throw Error(ErrorCode::InvalidInput,
-                        data_where + ": truncated: expected " + std::to_string(expected) +
-                            " bytes of voxel data at the end of the file ('byte skip: -1'), "
-                            "found " +
-                            std::to_string(end));
-        }
-        data->seekg(static_cast<std::streamoff>(end - expected));
-    } else if (byte_skip > 0) {
-        data->ignore(byte_skip);
-        if (data->gcount() < byte_skip) {
-            throw Error(ErrorCode::InvalidInput, data_where + ": truncated: file ends within the " +
-                                                     std::to_string(byte_skip) +
-                                                     " bytes of 'byte skip'");
-        }
-    }
-    if (encoding == Encoding::Ascii) {
-        decode_ascii(*data, count, decoder, data_where);
-    } else {
-        decoder.decode_all([&](unsigned char* out,
-                               std::size_t size) { return read_raw(*data, out, size, data_where); },
-                           "", DataBound{data_bytes_left(*data, data_file), true});
-    }
+    LabelDecoder decoder(storage.type, storage.swap, stack, data_where, options.progress);
+    decode_voxels(*data, data_file, storage, skips, width * height * depth, decoder, data_where);
     return stack;
 }
 
