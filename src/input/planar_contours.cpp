@@ -158,17 +158,8 @@ struct Counts {
     std::size_t nonplanar = 0;
 };
 
-}  // namespace
-
-PlanarContours clean_planar_contours(const RawContourSet& raw,
-                                     const ContourCleaningOptions& options,
-                                     Report& report) {
-    PlanarContours result;
-    result.source = raw.source;
-    result.frame = raw.frame;
-    result.reference = raw.reference;
-
-    // The plane normal: the reference grid's, else the area-weighted mean of the contours'.
+/// The plane normal: the reference grid's, else the area-weighted mean of the contours'.
+Vec3 plane_normal(const RawContourSet& raw) {
     for (const RawRoi& roi : raw.rois) {
         for (const RawContour& c : roi.contours) {
             for (const Vec3 p : c.points) {
@@ -179,183 +170,178 @@ PlanarContours clean_planar_contours(const RawContourSet& raw,
             }
         }
     }
-    Vec3 normal;
     if (raw.reference) {
-        normal = normalized(cross(raw.reference->row_direction, raw.reference->column_direction));
-    } else {
-        Vec3 sum;
-        for (const RawRoi& roi : raw.rois) {
-            for (const RawContour& c : roi.contours) {
-                if (c.geometric_type != "CLOSED_PLANAR" || c.points.size() < 3) {
-                    continue;
-                }
-                Vec3 n = newell_normal(c.points);
-                // note: holes may wind either way; align every normal with the first
-                if (dot(n, sum) < 0.0 || (dot(sum, sum) == 0.0 && n.z < 0.0)) {
-                    n = -1.0 * n;
-                }
-                sum = sum + n;
-            }
-        }
-        normal = dot(sum, sum) > 0.0 ? normalized(sum) : Vec3{0, 0, 1};
+        return normalized(cross(raw.reference->row_direction, raw.reference->column_direction));
     }
-    // Axes: u is the patient x axis projected into the plane (the reference grid's row
-    // direction when there is one), v = normal x u.
-    Vec3 u = raw.reference ? raw.reference->row_direction : Vec3{1, 0, 0};
-    u = u - dot(u, normal) * normal;
-    if (norm(u) < 1e-6) {
-        u = Vec3{0, 1, 0} - normal.y * normal;
-    }
-    u = normalized(u);
-    const Vec3 v = cross(normal, u);
-    result.axis_u = u;
-    result.axis_v = v;
-    result.normal = normal;
-    const double tilt = std::acos(std::clamp(std::abs(normal.z), 0.0, 1.0)) * 180.0 / M_PI;
-    if (tilt > 0.01) {
-        report.warn("input", raw.source,
-                    "the contour planes are tilted " + format_mm(tilt) +
-                        " degrees from axial (normal " + format_mm(normal.x) + ", " +
-                        format_mm(normal.y) + ", " + format_mm(normal.z) +
-                        "): the planes are kept tilted, slices follow them");
-    }
-
-    std::vector<double> all_planes;
+    Vec3 sum;
     for (const RawRoi& roi : raw.rois) {
-        ContourObject object;
-        object.number = roi.number;
-        object.name = roi.name.empty() ? "ROI " + std::to_string(roi.number) : roi.name;
-        object.interpreted_type = roi.interpreted_type;
-        object.color = roi.color.value_or(ColorSrgb8{0, 0, 0});
-        const std::string where = roi_where(roi);
-        if (roi.name.empty()) {
-            report.warn("input", where, "no ROI name; named '" + object.name + "'");
-        }
-        Counts counts;
-        std::vector<std::pair<double, PlaneContour>> flat;
         for (const RawContour& c : roi.contours) {
-            if (c.points.empty()) {
-                ++counts.degenerate;
+            if (c.geometric_type != "CLOSED_PLANAR" || c.points.size() < 3) {
                 continue;
             }
-            if (c.geometric_type == "POINT") {
+            Vec3 n = newell_normal(c.points);
+            // note: holes may wind either way; align every normal with the first
+            if (dot(n, sum) < 0.0 || (dot(sum, sum) == 0.0 && n.z < 0.0)) {
+                n = -1.0 * n;
+            }
+            sum = sum + n;
+        }
+    }
+    return dot(sum, sum) > 0.0 ? normalized(sum) : Vec3{0, 0, 1};
+}
+
+/// One ROI's contours in the plane frame of `result` (its axes set), grouped by plane; what it
+/// met on the way is counted in `counts`.
+ContourObject clean_roi(const RawRoi& roi,
+                        const PlanarContours& result,
+                        const ContourCleaningOptions& options,
+                        Counts& counts) {
+    const Vec3 normal = result.normal;
+    const Vec3 u = result.axis_u;
+    const Vec3 v = result.axis_v;
+    ContourObject object;
+    object.number = roi.number;
+    object.name = roi.name.empty() ? "ROI " + std::to_string(roi.number) : roi.name;
+    object.interpreted_type = roi.interpreted_type;
+    object.color = roi.color.value_or(ColorSrgb8{0, 0, 0});
+    std::vector<std::pair<double, PlaneContour>> flat;
+    for (const RawContour& c : roi.contours) {
+        if (c.points.empty()) {
+            ++counts.degenerate;
+            continue;
+        }
+        if (c.geometric_type == "POINT") {
+            object.markers.insert(object.markers.end(), c.points.begin(), c.points.end());
+            ++counts.points;
+            continue;
+        }
+        // Position along the normal: the mean; every point must be close to it.
+        double w = 0.0;
+        for (const Vec3 p : c.points) {
+            w += dot(p, normal);
+        }
+        w /= double(c.points.size());
+        double off = 0.0;
+        for (const Vec3 p : c.points) {
+            off = std::max(off, std::abs(dot(p, normal) - w));
+        }
+        if (off > options.max_off_plane_mm) {
+            if (c.geometric_type == "OPEN_NONPLANAR") {
                 object.markers.insert(object.markers.end(), c.points.begin(), c.points.end());
-                ++counts.points;
+                ++counts.nonplanar;
                 continue;
             }
-            // Position along the normal: the mean; every point must be close to it.
-            double w = 0.0;
-            for (const Vec3 p : c.points) {
-                w += dot(p, normal);
-            }
-            w /= double(c.points.size());
-            double off = 0.0;
-            for (const Vec3 p : c.points) {
-                off = std::max(off, std::abs(dot(p, normal) - w));
-            }
-            if (off > options.max_off_plane_mm) {
-                if (c.geometric_type == "OPEN_NONPLANAR") {
-                    object.markers.insert(object.markers.end(), c.points.begin(), c.points.end());
-                    ++counts.nonplanar;
-                    continue;
-                }
-                throw Error(ErrorCode::InvalidInput,
-                            raw.source + ": " + c.where + ": a point lies " + format_mm(off) +
-                                " mm off the contour's plane (normal " + format_mm(normal.x) +
-                                ", " + format_mm(normal.y) + ", " + format_mm(normal.z) +
-                                "), expected planar contours on parallel planes (at most " +
-                                format_mm(options.max_off_plane_mm) + " mm)");
-            }
-            if (off > options.plane_merge_mm) {
-                ++counts.projected;
-                counts.largest_off_plane = std::max(counts.largest_off_plane, off);
-            }
-            PlaneContour pc;
-            pc.points.reserve(c.points.size());
-            for (const Vec3 p : c.points) {
-                pc.points.push_back({dot(p, u), dot(p, v)});
-            }
-            if (c.geometric_type != "CLOSED_PLANAR") {
-                ++counts.opened;  // note: closed by the chord from its last point to its first
-            }
-            remove_degenerate_points(pc.points, options.duplicate_mm, options.collinear_mm,
-                                     counts.duplicates, counts.collinear);
-            if (pc.points.size() < 3 || std::abs(signed_area(pc.points)) < 1e-9) {
-                ++counts.degenerate;
-                for (const Vec3 p : c.points) {
-                    object.markers.push_back(p);
-                }
-                continue;
-            }
-            std::size_t crossings = 0;
-            std::size_t keyholes = 0;
-            count_self_crossings(pc.points, crossings, keyholes);
-            counts.self_crossing += crossings > 0;
-            counts.keyholes += keyholes > 0;
-            flat.emplace_back(w, std::move(pc));
+            throw Error(ErrorCode::InvalidInput,
+                        result.source + ": " + c.where + ": a point lies " + format_mm(off) +
+                            " mm off the contour's plane (normal " + format_mm(normal.x) + ", " +
+                            format_mm(normal.y) + ", " + format_mm(normal.z) +
+                            "), expected planar contours on parallel planes (at most " +
+                            format_mm(options.max_off_plane_mm) + " mm)");
         }
-        std::stable_sort(flat.begin(), flat.end(),
-                         [](const auto& a, const auto& b) { return a.first < b.first; });
-        for (auto& [w, contour] : flat) {
-            if (object.planes.empty() || w - object.planes.back().w > options.plane_merge_mm) {
-                object.planes.push_back({w, {}});
-            }
-            object.planes.back().contours.push_back(std::move(contour));
+        if (off > options.plane_merge_mm) {
+            ++counts.projected;
+            counts.largest_off_plane = std::max(counts.largest_off_plane, off);
         }
+        PlaneContour pc;
+        pc.points.reserve(c.points.size());
+        for (const Vec3 p : c.points) {
+            pc.points.push_back({dot(p, u), dot(p, v)});
+        }
+        if (c.geometric_type != "CLOSED_PLANAR") {
+            ++counts.opened;  // note: closed by the chord from its last point to its first
+        }
+        remove_degenerate_points(pc.points, options.duplicate_mm, options.collinear_mm,
+                                 counts.duplicates, counts.collinear);
+        if (pc.points.size() < 3 || std::abs(signed_area(pc.points)) < 1e-9) {
+            ++counts.degenerate;
+            for (const Vec3 p : c.points) {
+                object.markers.push_back(p);
+            }
+            continue;
+        }
+        std::size_t crossings = 0;
+        std::size_t keyholes = 0;
+        count_self_crossings(pc.points, crossings, keyholes);
+        counts.self_crossing += crossings > 0;
+        counts.keyholes += keyholes > 0;
+        flat.emplace_back(w, std::move(pc));
+    }
+    std::stable_sort(flat.begin(), flat.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (auto& [w, contour] : flat) {
+        if (object.planes.empty() || w - object.planes.back().w > options.plane_merge_mm) {
+            object.planes.push_back({w, {}});
+        }
+        object.planes.back().contours.push_back(std::move(contour));
+    }
+    return object;
+}
+
+/// The warnings of one ROI: what cleaning it changed or left out.
+void warn_counts(const Counts& counts,
+                 const RawRoi& roi,
+                 const ContourObject& object,
+                 const std::string& where,
+                 Report& report) {
+    if (counts.duplicates > 0 || counts.collinear > 0) {
+        report.warn("input", where,
+                    std::to_string(counts.duplicates) + " repeated and " +
+                        std::to_string(counts.collinear) +
+                        " collinear contour points removed (the polygons are unchanged)");
+    }
+    if (counts.projected > 0) {
+        report.warn("input", where,
+                    std::to_string(counts.projected) + " contour(s) up to " +
+                        format_mm(counts.largest_off_plane) +
+                        " mm off their plane: projected onto it");
+    }
+    if (counts.opened > 0) {
+        report.warn("input", where,
+                    std::to_string(counts.opened) +
+                        " open contour(s) closed by the segment from their last point to "
+                        "their first");
+    }
+    if (counts.self_crossing > 0) {
+        report.warn("input", where,
+                    std::to_string(counts.self_crossing) +
+                        " contour(s) cross themselves: their inside is taken by the "
+                        "even-odd rule");
+    }
+    if (counts.keyholes > 0) {
+        report.warn("input", where,
+                    std::to_string(counts.keyholes) +
+                        " contour(s) with keyhole cuts (edges running back over each other): "
+                        "the cut has no area, the hole stays a hole");
+    }
+    if (counts.degenerate > 0) {
+        report.warn("input", where,
+                    std::to_string(counts.degenerate) +
+                        " contour(s) with fewer than 3 distinct points or no area: kept as "
+                        "markers, not surfaces");
+    }
+    if (counts.points > 0 || counts.nonplanar > 0) {
+        report.warn("input", where,
+                    std::to_string(counts.points) + " POINT and " +
+                        std::to_string(counts.nonplanar) +
+                        " OPEN_NONPLANAR contour(s): kept as markers, not surfaces");
+    }
+    if (object.planes.empty()) {
+        report.warn("input", where,
+                    roi.contours.empty() ? "no contours: no surface"
+                                         : "no closed contour with area: no surface");
+    }
+}
+
+/// Plane spacing over all structures: uneven spacing and planes a structure skips.
+void warn_plane_spacing(const PlanarContours& result,
+                        const ContourCleaningOptions& options,
+                        Report& report) {
+    std::vector<double> all_planes;
+    for (const ContourObject& object : result.objects) {
         for (const ContourPlane& plane : object.planes) {
             all_planes.push_back(plane.w);
         }
-        if (counts.duplicates > 0 || counts.collinear > 0) {
-            report.warn("input", where,
-                        std::to_string(counts.duplicates) + " repeated and " +
-                            std::to_string(counts.collinear) +
-                            " collinear contour points removed (the polygons are unchanged)");
-        }
-        if (counts.projected > 0) {
-            report.warn("input", where,
-                        std::to_string(counts.projected) + " contour(s) up to " +
-                            format_mm(counts.largest_off_plane) +
-                            " mm off their plane: projected onto it");
-        }
-        if (counts.opened > 0) {
-            report.warn("input", where,
-                        std::to_string(counts.opened) +
-                            " open contour(s) closed by the segment from their last point to "
-                            "their first");
-        }
-        if (counts.self_crossing > 0) {
-            report.warn("input", where,
-                        std::to_string(counts.self_crossing) +
-                            " contour(s) cross themselves: their inside is taken by the "
-                            "even-odd rule");
-        }
-        if (counts.keyholes > 0) {
-            report.warn("input", where,
-                        std::to_string(counts.keyholes) +
-                            " contour(s) with keyhole cuts (edges running back over each other): "
-                            "the cut has no area, the hole stays a hole");
-        }
-        if (counts.degenerate > 0) {
-            report.warn("input", where,
-                        std::to_string(counts.degenerate) +
-                            " contour(s) with fewer than 3 distinct points or no area: kept as "
-                            "markers, not surfaces");
-        }
-        if (counts.points > 0 || counts.nonplanar > 0) {
-            report.warn("input", where,
-                        std::to_string(counts.points) + " POINT and " +
-                            std::to_string(counts.nonplanar) +
-                            " OPEN_NONPLANAR contour(s): kept as markers, not surfaces");
-        }
-        if (object.planes.empty()) {
-            report.warn("input", where,
-                        roi.contours.empty() ? "no contours: no surface"
-                                             : "no closed contour with area: no surface");
-        }
-        result.objects.push_back(std::move(object));
     }
-
-    // Plane spacing over all structures: uneven spacing and planes a structure skips.
     std::sort(all_planes.begin(), all_planes.end());
     std::vector<double> planes;
     for (const double w : all_planes) {
@@ -371,7 +357,7 @@ PlanarContours clean_planar_contours(const RawContourSet& raw,
             hi = std::max(hi, planes[i + 1] - planes[i]);
         }
         if (hi - lo > options.plane_merge_mm) {
-            report.warn("input", raw.source,
+            report.warn("input", result.source,
                         "uneven plane spacing: " + format_mm(lo) + " to " + format_mm(hi) +
                             " mm between the " + std::to_string(planes.size()) + " planes");
         }
@@ -400,6 +386,50 @@ PlanarContours clean_planar_contours(const RawContourSet& raw,
                             " mm apart): its surface is built between the planes it has");
         }
     }
+}
+
+}  // namespace
+
+PlanarContours clean_planar_contours(const RawContourSet& raw,
+                                     const ContourCleaningOptions& options,
+                                     Report& report) {
+    PlanarContours result;
+    result.source = raw.source;
+    result.frame = raw.frame;
+    result.reference = raw.reference;
+    const Vec3 normal = plane_normal(raw);
+    // Axes: u is the patient x axis projected into the plane (the reference grid's row
+    // direction when there is one), v = normal x u.
+    Vec3 u = raw.reference ? raw.reference->row_direction : Vec3{1, 0, 0};
+    u = u - dot(u, normal) * normal;
+    if (norm(u) < 1e-6) {
+        u = Vec3{0, 1, 0} - normal.y * normal;
+    }
+    u = normalized(u);
+    const Vec3 v = cross(normal, u);
+    result.axis_u = u;
+    result.axis_v = v;
+    result.normal = normal;
+    const double tilt = std::acos(std::clamp(std::abs(normal.z), 0.0, 1.0)) * 180.0 / M_PI;
+    if (tilt > 0.01) {
+        report.warn("input", raw.source,
+                    "the contour planes are tilted " + format_mm(tilt) +
+                        " degrees from axial (normal " + format_mm(normal.x) + ", " +
+                        format_mm(normal.y) + ", " + format_mm(normal.z) +
+                        "): the planes are kept tilted, slices follow them");
+    }
+
+    for (const RawRoi& roi : raw.rois) {
+        const std::string where = roi_where(roi);
+        Counts counts;
+        ContourObject object = clean_roi(roi, result, options, counts);
+        if (roi.name.empty()) {
+            report.warn("input", where, "no ROI name; named '" + object.name + "'");
+        }
+        warn_counts(counts, roi, object, where, report);
+        result.objects.push_back(std::move(object));
+    }
+    warn_plane_spacing(result, options, report);
     return result;
 }
 
