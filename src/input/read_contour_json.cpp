@@ -37,6 +37,113 @@ std::string read_text(const std::string& path) {
     return text.str();
 }
 
+/// One contour of a slice: `cat` its place in the file, `z` the slice's position when `has_z`.
+RawContour read_contour(const Json& contour,
+                        const std::string& path,
+                        const std::string& cat,
+                        const std::string& roi_name,
+                        bool has_z,
+                        double z) {
+    RawContour raw;
+    raw.where = roi_name.empty() ? cat : cat + " (" + roi_name + ")";
+    if (contour.contains("geometric_type")) {
+        raw.geometric_type = contour["geometric_type"].is_string()
+                                 ? contour["geometric_type"].get<std::string>()
+                                 : "";
+        if (!is_contour_geometric_type(raw.geometric_type)) {
+            fail(path, cat +
+                           ".geometric_type: expected CLOSED_PLANAR, OPEN_PLANAR, "
+                           "OPEN_NONPLANAR or POINT");
+        }
+    }
+    if (contour.contains("closed")) {
+        if (!contour["closed"].is_boolean()) {
+            fail(path, cat + ".closed: expected true or false");
+        }
+        if (!contour["closed"].get<bool>()) {
+            raw.geometric_type = "OPEN_PLANAR";
+        }
+    }
+    for (std::size_t p = 0; p < contour["points"].size(); ++p) {
+        const Json& point = contour["points"][p];
+        const std::string pat = cat + ".points[" + std::to_string(p) + "]";
+        if (!point.is_array() || (point.size() != 2 && point.size() != 3) ||
+            (point.size() == 2 && !has_z)) {
+            fail(path, pat + ": expected [x, y] (on a slice with \"z\") or [x, y, z]");
+        }
+        Vec3 q{number(point[0], path, pat), number(point[1], path, pat), z};
+        if (point.size() == 3) {
+            q.z = number(point[2], path, pat);
+        }
+        raw.points.push_back(q);
+    }
+    return raw;
+}
+
+/// One structure of "rois" (`at` its place in the file): number, name, type, colour, contours.
+RawRoi read_roi(const Json& roi, const std::string& path, std::size_t r, const std::string& at) {
+    if (!roi.is_object()) {
+        fail(path, at + ": expected an object");
+    }
+    RawRoi out;
+    out.number = std::int32_t(r + 1);
+    if (roi.contains("number")) {
+        const double n = number(roi["number"], path, at + ".number");
+        if (!(n >= -2147483648.0 && n <= 2147483647.0) || n != std::floor(n)) {
+            fail(path, at + ".number: expected an integer (a 32-bit ROI Number)");
+        }
+        out.number = std::int32_t(n);
+    }
+    if (roi.contains("name")) {
+        if (!roi["name"].is_string()) {
+            fail(path, at + ".name: expected a string");
+        }
+        out.name = roi["name"].get<std::string>();
+    }
+    if (roi.contains("interpreted_type") && roi["interpreted_type"].is_string()) {
+        out.interpreted_type = roi["interpreted_type"].get<std::string>();
+    }
+    if (roi.contains("color_rgb")) {
+        const Json& c = roi["color_rgb"];
+        if (!c.is_array() || c.size() != 3) {
+            fail(path, at + ".color_rgb: expected [r, g, b], each 0-255");
+        }
+        ColorSrgb8 color{};
+        for (int i = 0; i < 3; ++i) {
+            const double v = number(c[std::size_t(i)], path, at + ".color_rgb");
+            if (!(v >= 0.0 && v <= 255.0)) {
+                fail(path, at + ".color_rgb: expected [r, g, b], each 0-255");
+            }
+            color[std::size_t(i)] = std::uint8_t(v);
+        }
+        out.color = color;
+    }
+    const Json slices = roi.value("slices", Json::array());
+    if (!slices.is_array()) {
+        fail(path, at + ".slices: expected an array");
+    }
+    for (std::size_t s = 0; s < slices.size(); ++s) {
+        const Json& slice = slices[s];
+        const std::string sat = at + ".slices[" + std::to_string(s) + "]";
+        if (!slice.is_object() || !slice.contains("contours") || !slice["contours"].is_array()) {
+            fail(path, sat + ": expected {\"z\": mm, \"contours\": [...]}");
+        }
+        const bool has_z = slice.contains("z");
+        const double z = has_z ? number(slice["z"], path, sat + ".z") : 0.0;
+        const Json& contours = slice["contours"];
+        for (std::size_t c = 0; c < contours.size(); ++c) {
+            const Json& contour = contours[c];
+            const std::string cat = sat + ".contours[" + std::to_string(c) + "]";
+            if (!contour.is_object() || !contour.contains("points") ||
+                !contour["points"].is_array()) {
+                fail(path, cat + ": expected {\"points\": [[x, y], ...]}");
+            }
+            out.contours.push_back(read_contour(contour, path, cat, out.name, has_z, z));
+        }
+    }
+    return out;
+}
+
 }  // namespace
 
 RawContourSet read_contour_json(const std::string& path) {
@@ -59,104 +166,7 @@ RawContourSet read_contour_json(const std::string& path) {
     }
     const Json& rois = root["rois"];
     for (std::size_t r = 0; r < rois.size(); ++r) {
-        const Json& roi = rois[r];
-        const std::string at = "rois[" + std::to_string(r) + "]";
-        if (!roi.is_object()) {
-            fail(path, at + ": expected an object");
-        }
-        RawRoi out;
-        out.number = std::int32_t(r + 1);
-        if (roi.contains("number")) {
-            const double n = number(roi["number"], path, at + ".number");
-            if (!(n >= -2147483648.0 && n <= 2147483647.0) || n != std::floor(n)) {
-                fail(path, at + ".number: expected an integer (a 32-bit ROI Number)");
-            }
-            out.number = std::int32_t(n);
-        }
-        if (roi.contains("name")) {
-            if (!roi["name"].is_string()) {
-                fail(path, at + ".name: expected a string");
-            }
-            out.name = roi["name"].get<std::string>();
-        }
-        if (roi.contains("interpreted_type") && roi["interpreted_type"].is_string()) {
-            out.interpreted_type = roi["interpreted_type"].get<std::string>();
-        }
-        if (roi.contains("color_rgb")) {
-            const Json& c = roi["color_rgb"];
-            if (!c.is_array() || c.size() != 3) {
-                fail(path, at + ".color_rgb: expected [r, g, b], each 0-255");
-            }
-            ColorSrgb8 color{};
-            for (int i = 0; i < 3; ++i) {
-                const double v = number(c[std::size_t(i)], path, at + ".color_rgb");
-                if (!(v >= 0.0 && v <= 255.0)) {
-                    fail(path, at + ".color_rgb: expected [r, g, b], each 0-255");
-                }
-                color[std::size_t(i)] = std::uint8_t(v);
-            }
-            out.color = color;
-        }
-        const Json slices = roi.value("slices", Json::array());
-        if (!slices.is_array()) {
-            fail(path, at + ".slices: expected an array");
-        }
-        for (std::size_t s = 0; s < slices.size(); ++s) {
-            const Json& slice = slices[s];
-            const std::string sat = at + ".slices[" + std::to_string(s) + "]";
-            if (!slice.is_object() || !slice.contains("contours") ||
-                !slice["contours"].is_array()) {
-                fail(path, sat + ": expected {\"z\": mm, \"contours\": [...]}");
-            }
-            const bool has_z = slice.contains("z");
-            const double z = has_z ? number(slice["z"], path, sat + ".z") : 0.0;
-            const Json& contours = slice["contours"];
-            for (std::size_t c = 0; c < contours.size(); ++c) {
-                const Json& contour = contours[c];
-                const std::string cat = sat + ".contours[" + std::to_string(c) + "]";
-                if (!contour.is_object() || !contour.contains("points") ||
-                    !contour["points"].is_array()) {
-                    fail(path, cat + ": expected {\"points\": [[x, y], ...]}");
-                }
-                RawContour raw;
-                raw.where = out.name.empty() ? cat : cat + " (" + out.name + ")";
-                if (contour.contains("geometric_type")) {
-                    raw.geometric_type = contour["geometric_type"].is_string()
-                                             ? contour["geometric_type"].get<std::string>()
-                                             : "";
-                    if (raw.geometric_type != "CLOSED_PLANAR" &&
-                        raw.geometric_type != "OPEN_PLANAR" &&
-                        raw.geometric_type != "OPEN_NONPLANAR" && raw.geometric_type != "POINT") {
-                        fail(path, cat +
-                                       ".geometric_type: expected CLOSED_PLANAR, OPEN_PLANAR, "
-                                       "OPEN_NONPLANAR or POINT");
-                    }
-                }
-                if (contour.contains("closed")) {
-                    if (!contour["closed"].is_boolean()) {
-                        fail(path, cat + ".closed: expected true or false");
-                    }
-                    if (!contour["closed"].get<bool>()) {
-                        raw.geometric_type = "OPEN_PLANAR";
-                    }
-                }
-                for (std::size_t p = 0; p < contour["points"].size(); ++p) {
-                    const Json& point = contour["points"][p];
-                    const std::string pat = cat + ".points[" + std::to_string(p) + "]";
-                    if (!point.is_array() || (point.size() != 2 && point.size() != 3) ||
-                        (point.size() == 2 && !has_z)) {
-                        fail(path, pat + ": expected [x, y] (on a slice with \"z\") or [x, y, z]");
-                    }
-                    Vec3 q{number(point[0], path, pat), number(point[1], path, pat), z};
-                    if (point.size() == 3) {
-                        q.z = number(point[2], path, pat);
-                    }
-                    raw.points.push_back(q);
-                }
-                out.contours.push_back(std::move(raw));
-            }
-        }
-        result.rois.push_back(std::move(out));
+        result.rois.push_back(read_roi(rois[r], path, r, "rois[" + std::to_string(r) + "]"));
     }
     return result;
 }

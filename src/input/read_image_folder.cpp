@@ -298,16 +298,17 @@ bool is_tiff(const fs::path& file) {
 }
 
 /// Refuses an image file whose bytes cannot decode to `pixels` pixels (a header claiming
-/// 60000^2 pixels in 100 bytes) before anything is allocated for it: PNG is deflate (at most
-/// 1032:1); other formats are bounded generously at 4096:1 (TIFF strips are checked one by one
-/// when read).
+/// 60000^2 pixels in 100 bytes) before anything is allocated for it: PNG is deflate
+/// (kMaxDeflateRatio); other formats are bounded by kMaxOtherRatio (TIFF strips are checked one
+/// by one when read).
 void check_image_holds(const fs::path& file, std::uint64_t pixels) {
     std::error_code ec;
     const std::uint64_t bytes = fs::file_size(file, ec);
     if (ec) {
         throw Error(ErrorCode::Io, file.string() + ": cannot read size: " + ec.message());
     }
-    const std::uint64_t ratio = lower(file.extension().string()) == ".png" ? 1032 : 4096;
+    const std::uint64_t ratio =
+        lower(file.extension().string()) == ".png" ? kMaxDeflateRatio : kMaxOtherRatio;
     const std::uint64_t can_hold = bytes * ratio + 4096;
     if (pixels > can_hold) {
         throw Error(ErrorCode::InvalidInput,

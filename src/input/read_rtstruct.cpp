@@ -136,21 +136,14 @@ bool is_dicom_file(const std::string& path) {
     return std::filesystem::is_regular_file(path) && has_dicom_preamble(path);
 }
 
-RawContourSet read_rtstruct(const std::string& path, const std::string& reference_ct) {
-    DcmFileFormat file;
-    DcmDataset& d = *load(file, path);
-    RawContourSet result;
-    result.source = path;
-    result.frame = "LPS";
-    const std::string modality = get_string(d, DCM_Modality);
-    const std::string sop_class = get_string(d, DCM_SOPClassUID);
-    if (modality != "RTSTRUCT" && sop_class != UID_RTStructureSetStorage) {
-        throw Error(ErrorCode::Unsupported,
-                    path + ": a DICOM file of modality '" + modality +
-                        "', not an RTSTRUCT (expected Modality RTSTRUCT, SOP Class "
-                        "1.2.840.10008.5.1.4.1.1.481.3); label images are read from NIfTI, "
-                        "NRRD or image folders");
-    }
+namespace {
+
+/// The ROIs of the Structure Set ROI Sequence (number and name) into `result`, indexed by number
+/// in `by_number`; returns their one frame of reference.
+std::string read_rois(DcmDataset& d,
+                      const std::string& path,
+                      RawContourSet& result,
+                      std::map<std::int32_t, std::size_t>& by_number) {
     // The frames of reference the structure set declares.
     std::vector<std::string> frames;
     DcmSequenceOfItems* frame_sequence = nullptr;
@@ -164,7 +157,6 @@ RawContourSet read_rtstruct(const std::string& path, const std::string& referenc
     if (d.findAndGetSequence(DCM_StructureSetROISequence, rois).bad() || rois == nullptr) {
         fail(path, "no Structure Set ROI Sequence (3006,0020): expected one item per ROI");
     }
-    std::map<std::int32_t, std::size_t> by_number;
     std::string frame_uid;
     for (unsigned long i = 0; i < rois->card(); ++i) {
         DcmItem& item = *rois->getItem(i);
@@ -199,6 +191,13 @@ RawContourSet read_rtstruct(const std::string& path, const std::string& referenc
         by_number[number] = result.rois.size();
         result.rois.push_back(std::move(roi));
     }
+    return frame_uid;
+}
+
+/// The RT ROI Interpreted Type of each ROI that has one.
+void read_interpreted_types(DcmDataset& d,
+                            RawContourSet& result,
+                            std::map<std::int32_t, std::size_t>& by_number) {
     DcmSequenceOfItems* observations = nullptr;
     if (d.findAndGetSequence(DCM_RTROIObservationsSequence, observations).good() &&
         observations != nullptr) {
@@ -212,6 +211,46 @@ RawContourSet read_rtstruct(const std::string& path, const std::string& referenc
             }
         }
     }
+}
+
+/// Contour `c` of an ROI Contour item's Contour Sequence.
+RawContour read_contour(DcmItem& contour,
+                        const std::string& path,
+                        const std::string& where,
+                        unsigned long c) {
+    RawContour raw;
+    raw.where = where + ", contour " + std::to_string(c + 1);
+    raw.geometric_type = get_string(contour, DCM_ContourGeometricType);
+    if (!is_contour_geometric_type(raw.geometric_type)) {
+        fail(path, raw.where + ": Contour Geometric Type '" + raw.geometric_type +
+                       "', expected CLOSED_PLANAR, OPEN_PLANAR, OPEN_NONPLANAR or "
+                       "POINT");
+    }
+    const std::vector<double> data = get_numbers(contour, DCM_ContourData, path, raw.where);
+    if (data.empty()) {
+        fail(path, raw.where + ": no Contour Data (3006,0050)");
+    }
+    if (data.size() % 3 != 0) {
+        fail(path, raw.where + ": Contour Data has " + std::to_string(data.size()) +
+                       " values, expected x, y, z triplets (a multiple of 3)");
+    }
+    Sint32 count = 0;
+    if (contour.findAndGetSint32(DCM_NumberOfContourPoints, count).good() &&
+        std::size_t(count) * 3 != data.size()) {
+        fail(path, raw.where + ": Number of Contour Points is " + std::to_string(count) +
+                       " but Contour Data holds " + std::to_string(data.size() / 3) + " points");
+    }
+    for (std::size_t p = 0; p < data.size(); p += 3) {
+        raw.points.push_back({data[p], data[p + 1], data[p + 2]});
+    }
+    return raw;
+}
+
+/// The colour and contours of each ROI from the ROI Contour Sequence.
+void read_roi_contours(DcmDataset& d,
+                       const std::string& path,
+                       RawContourSet& result,
+                       std::map<std::int32_t, std::size_t>& by_number) {
     DcmSequenceOfItems* contours = nullptr;
     if (d.findAndGetSequence(DCM_ROIContourSequence, contours).good() && contours != nullptr) {
         for (unsigned long i = 0; i < contours->card(); ++i) {
@@ -242,40 +281,17 @@ RawContourSet read_rtstruct(const std::string& path, const std::string& referenc
                 continue;  // note: an ROI without contours; cleaning reports it
             }
             for (unsigned long c = 0; c < sequence->card(); ++c) {
-                DcmItem& contour = *sequence->getItem(c);
-                RawContour raw;
-                raw.where = where + ", contour " + std::to_string(c + 1);
-                raw.geometric_type = get_string(contour, DCM_ContourGeometricType);
-                if (raw.geometric_type != "CLOSED_PLANAR" && raw.geometric_type != "OPEN_PLANAR" &&
-                    raw.geometric_type != "OPEN_NONPLANAR" && raw.geometric_type != "POINT") {
-                    fail(path, raw.where + ": Contour Geometric Type '" + raw.geometric_type +
-                                   "', expected CLOSED_PLANAR, OPEN_PLANAR, OPEN_NONPLANAR or "
-                                   "POINT");
-                }
-                const std::vector<double> data =
-                    get_numbers(contour, DCM_ContourData, path, raw.where);
-                if (data.empty()) {
-                    fail(path, raw.where + ": no Contour Data (3006,0050)");
-                }
-                if (data.size() % 3 != 0) {
-                    fail(path, raw.where + ": Contour Data has " + std::to_string(data.size()) +
-                                   " values, expected x, y, z triplets (a multiple of 3)");
-                }
-                Sint32 count = 0;
-                if (contour.findAndGetSint32(DCM_NumberOfContourPoints, count).good() &&
-                    std::size_t(count) * 3 != data.size()) {
-                    fail(path, raw.where + ": Number of Contour Points is " +
-                                   std::to_string(count) + " but Contour Data holds " +
-                                   std::to_string(data.size() / 3) + " points");
-                }
-                for (std::size_t p = 0; p < data.size(); p += 3) {
-                    raw.points.push_back({data[p], data[p + 1], data[p + 2]});
-                }
-                roi.contours.push_back(std::move(raw));
+                roi.contours.push_back(read_contour(*sequence->getItem(c), path, where, c));
             }
         }
     }
-    // The reference grid: the given CT, else a CT beside the RTSTRUCT in the same frame.
+}
+
+/// The reference grid: the given CT, else a CT beside the RTSTRUCT in the same frame.
+std::optional<PlaneGrid> find_reference_grid(const std::string& path,
+                                             const std::string& reference_ct,
+                                             const std::string& frame_uid) {
+    std::optional<PlaneGrid> reference;
     std::vector<std::filesystem::path> candidates;
     bool required = false;
     if (!reference_ct.empty()) {
@@ -309,14 +325,39 @@ RawContourSet read_rtstruct(const std::string& path, const std::string& referenc
             }
             continue;
         }
-        result.reference = image_grid(cd, candidate.string(), required);
-        if (result.reference) {
+        reference = image_grid(cd, candidate.string(), required);
+        if (reference) {
             break;
         }
     }
-    if (required && !result.reference) {
+    if (required && !reference) {
         fail(reference_ct, "no image slice in frame of reference " + frame_uid);
     }
+    return reference;
+}
+
+}  // namespace
+
+RawContourSet read_rtstruct(const std::string& path, const std::string& reference_ct) {
+    DcmFileFormat file;
+    DcmDataset& d = *load(file, path);
+    RawContourSet result;
+    result.source = path;
+    result.frame = "LPS";
+    const std::string modality = get_string(d, DCM_Modality);
+    const std::string sop_class = get_string(d, DCM_SOPClassUID);
+    if (modality != "RTSTRUCT" && sop_class != UID_RTStructureSetStorage) {
+        throw Error(ErrorCode::Unsupported,
+                    path + ": a DICOM file of modality '" + modality +
+                        "', not an RTSTRUCT (expected Modality RTSTRUCT, SOP Class "
+                        "1.2.840.10008.5.1.4.1.1.481.3); label images are read from NIfTI, "
+                        "NRRD or image folders");
+    }
+    std::map<std::int32_t, std::size_t> by_number;
+    const std::string frame_uid = read_rois(d, path, result, by_number);
+    read_interpreted_types(d, result, by_number);
+    read_roi_contours(d, path, result, by_number);
+    result.reference = find_reference_grid(path, reference_ct, frame_uid);
     return result;
 }
 

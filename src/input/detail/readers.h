@@ -2,6 +2,7 @@
 
 // Format readers behind read_slice_stack(); internal to strata_input.
 
+#include <cstdint>
 #include <filesystem>
 #include <vector>
 
@@ -10,6 +11,13 @@
 #include "input/slice_stack.h"
 
 namespace strata::detail {
+
+// Deflate (gzip, zlib, PNG) expands at most 1032:1 (RFC 1951: a 258-byte match costs at least 2
+// bits), so a compressed stream of N bytes holds at most N * 1032 bytes of data.
+inline constexpr std::uint64_t kMaxDeflateRatio = 1032;
+
+// Other image compressions (LZW, JPEG, ...) are bounded generously at 4096:1.
+inline constexpr std::uint64_t kMaxOtherRatio = 4096;
 
 /// Folder of 2D images (PNG, TIFF, JPEG, ... via OpenImageIO), natural sort, optional meta.json.
 SliceStack read_image_folder(const std::filesystem::path& folder,

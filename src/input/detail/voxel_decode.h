@@ -17,6 +17,7 @@
 
 #include "core/error.h"
 #include "core/progress.h"
+#include "input/detail/readers.h"
 #include "input/detail/text.h"
 #include "input/slice_stack.h"
 
@@ -25,10 +26,6 @@ namespace strata::detail {
 // note: raw voxel bytes are streamed through a buffer of this size (a multiple of every voxel
 // size), so memory use is bounded by the label images whatever the stored type
 inline constexpr std::size_t kChunkBytes = std::size_t(1) << 20;
-
-// Deflate (gzip, zlib) expands at most 1032:1 (RFC 1951: a 258-byte match costs at least 2 bits),
-// so a compressed stream of N bytes holds at most N * 1032 bytes of data.
-inline constexpr std::uint64_t kMaxDeflateRatio = 1032;
 
 /// What the data stream behind a header can hold, so that a header claiming more than the file
 /// can deliver is refused (or found truncated) before its labels are allocated.
