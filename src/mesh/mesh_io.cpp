@@ -735,6 +735,139 @@ private:
     std::size_t next_ = 0;
 };
 
+/// The properties of an element that read_ply_body uses (-1: none): the vertex coordinates, the
+/// face's corner list and label.
+struct PlyColumns {
+    int x = -1;
+    int y = -1;
+    int z = -1;
+    int corners = -1;
+    int label = -1;
+};
+
+PlyColumns ply_columns(const PlyElement& element,
+                       bool is_vertex,
+                       bool is_face,
+                       const std::filesystem::path& path) {
+    PlyColumns columns;
+    int& x = columns.x;
+    int& y = columns.y;
+    int& z = columns.z;
+    int& corners = columns.corners;
+    int& label = columns.label;
+    if (is_vertex) {
+        x = element.find("x");
+        y = element.find("y");
+        z = element.find("z");
+        if (x < 0 || y < 0 || z < 0 || element.properties[x].is_list ||
+            element.properties[y].is_list || element.properties[z].is_list) {
+            fail(ErrorCode::InvalidInput, path,
+                 "PLY element 'vertex' needs scalar properties x, y and z");
+        }
+    }
+    if (is_face) {
+        corners = element.find("vertex_indices");
+        if (corners < 0) {
+            corners = element.find("vertex_index");
+        }
+        if (corners < 0 || !element.properties[corners].is_list ||
+            !is_integer(element.properties[corners].type)) {
+            fail(ErrorCode::InvalidInput, path,
+                 "PLY element 'face' needs an integer list property vertex_indices");
+        }
+        label = element.find("label");
+        if (label >= 0 &&
+            (element.properties[label].is_list || !is_integer(element.properties[label].type))) {
+            fail(ErrorCode::InvalidInput, path,
+                 "PLY face property 'label' must be a scalar integer");
+        }
+    }
+    return columns;
+}
+
+/// The rows of one element: vertices to positions, faces fanned into triangles (and labels).
+template <class Rows>
+void read_ply_rows(Rows& rows,
+                   const PlyElement& element,
+                   bool is_vertex,
+                   bool is_face,
+                   const PlyColumns& columns,
+                   std::uint64_t vertex_count,
+                   TriMesh& mesh,
+                   const std::filesystem::path& path) {
+    const auto [x, y, z, corners, label] = columns;
+    std::vector<double> values;
+    std::uint64_t row = 0;
+    auto context = [&] {
+        return element.name + " " + std::to_string(row) + " of " + std::to_string(element.count) +
+               " (" + rows.where() + ")";
+    };
+    try {
+        for (; row < element.count; ++row) {
+            rows.begin_row();
+            Vec3 position;
+            std::uint16_t row_label = 0;
+            for (std::size_t p = 0; p < element.properties.size(); ++p) {
+                const PlyProperty& property = element.properties[p];
+                if (!property.is_list) {
+                    const double value = rows.scalar(property.type);
+                    const int index = static_cast<int>(p);
+                    if (index == x || index == y || index == z) {
+                        if (!std::isfinite(value)) {
+                            throw RowError{"non-finite coordinate " + property.name};
+                        }
+                        position[index == x ? 0 : (index == y ? 1 : 2)] = value;
+                    } else if (index == label) {
+                        if (value < 0 || value > 65535) {
+                            throw RowError{"label " + std::to_string(std::int64_t(value)) +
+                                           " out of range, expected 0 to 65535"};
+                        }
+                        row_label = static_cast<std::uint16_t>(value);
+                    }
+                    continue;
+                }
+                const double count = rows.scalar(property.count_type);
+                if (count < 0) {
+                    throw RowError{"negative list length " + std::to_string(std::int64_t(count))};
+                }
+                const bool is_corners = static_cast<int>(p) == corners;
+                if (is_corners && count < 3) {
+                    throw RowError{std::to_string(std::int64_t(count)) +
+                                   " corners, expected at least 3"};
+                }
+                values.clear();
+                for (std::uint64_t i = 0; i < static_cast<std::uint64_t>(count); ++i) {
+                    const double value = rows.scalar(property.type);
+                    if (is_corners) {
+                        if (value < 0 || value >= static_cast<double>(vertex_count)) {
+                            throw RowError{"vertex index " + std::to_string(std::int64_t(value)) +
+                                           " out of range, expected 0 to " +
+                                           std::to_string(std::int64_t(vertex_count) - 1) + " (" +
+                                           std::to_string(vertex_count) + " vertices)"};
+                        }
+                        values.push_back(value);
+                    }
+                }
+                for (std::size_t i = 1; is_corners && i + 1 < values.size(); ++i) {
+                    mesh.triangles.push_back({static_cast<std::uint32_t>(values[0]),
+                                              static_cast<std::uint32_t>(values[i]),
+                                              static_cast<std::uint32_t>(values[i + 1])});
+                }
+            }
+            rows.end_row();
+            if (is_vertex) {
+                mesh.positions.push_back(position);
+            }
+            if (is_face && label >= 0) {
+                mesh.labels.resize(mesh.triangles.size(), row_label);
+            }
+        }
+    } catch (const RowError& e) {
+        fail(ErrorCode::InvalidInput, path,
+             std::string(e.truncated ? "truncated: " : "") + context() + ": " + e.message);
+    }
+}
+
 template <class Rows>
 void read_ply_body(Rows& rows,
                    const PlyHeader& header,
@@ -756,116 +889,21 @@ void read_ply_body(Rows& rows,
     }
     const std::uint64_t vertex_count = vertices->count;
 
-    std::vector<double> values;
     for (const PlyElement& element : header.elements) {
         rows.check_fits(element, path);
         const bool is_vertex = &element == vertices;
         const bool is_face = element.name == "face";
-        int x = -1, y = -1, z = -1, corners = -1, label = -1;
+        const PlyColumns columns = ply_columns(element, is_vertex, is_face, path);
         if (is_vertex) {
-            x = element.find("x");
-            y = element.find("y");
-            z = element.find("z");
-            if (x < 0 || y < 0 || z < 0 || element.properties[x].is_list ||
-                element.properties[y].is_list || element.properties[z].is_list) {
-                fail(ErrorCode::InvalidInput, path,
-                     "PLY element 'vertex' needs scalar properties x, y and z");
-            }
             mesh.positions.reserve(std::min(element.count, rows.capacity(element)));
         }
         if (is_face) {
-            corners = element.find("vertex_indices");
-            if (corners < 0) {
-                corners = element.find("vertex_index");
-            }
-            if (corners < 0 || !element.properties[corners].is_list ||
-                !is_integer(element.properties[corners].type)) {
-                fail(ErrorCode::InvalidInput, path,
-                     "PLY element 'face' needs an integer list property vertex_indices");
-            }
-            label = element.find("label");
-            if (label >= 0 && (element.properties[label].is_list ||
-                               !is_integer(element.properties[label].type))) {
-                fail(ErrorCode::InvalidInput, path,
-                     "PLY face property 'label' must be a scalar integer");
-            }
             mesh.triangles.reserve(std::min(element.count, rows.capacity(element)));
-            if (label >= 0) {
+            if (columns.label >= 0) {
                 mesh.labels.reserve(mesh.triangles.capacity());
             }
         }
-
-        std::uint64_t row = 0;
-        auto context = [&] {
-            return element.name + " " + std::to_string(row) + " of " +
-                   std::to_string(element.count) + " (" + rows.where() + ")";
-        };
-        try {
-            for (; row < element.count; ++row) {
-                rows.begin_row();
-                Vec3 position;
-                std::uint16_t row_label = 0;
-                for (std::size_t p = 0; p < element.properties.size(); ++p) {
-                    const PlyProperty& property = element.properties[p];
-                    if (!property.is_list) {
-                        const double value = rows.scalar(property.type);
-                        const int index = static_cast<int>(p);
-                        if (index == x || index == y || index == z) {
-                            if (!std::isfinite(value)) {
-                                throw RowError{"non-finite coordinate " + property.name};
-                            }
-                            position[index == x ? 0 : (index == y ? 1 : 2)] = value;
-                        } else if (index == label) {
-                            if (value < 0 || value > 65535) {
-                                throw RowError{"label " + std::to_string(std::int64_t(value)) +
-                                               " out of range, expected 0 to 65535"};
-                            }
-                            row_label = static_cast<std::uint16_t>(value);
-                        }
-                        continue;
-                    }
-                    const double count = rows.scalar(property.count_type);
-                    if (count < 0) {
-                        throw RowError{"negative list length " +
-                                       std::to_string(std::int64_t(count))};
-                    }
-                    const bool is_corners = static_cast<int>(p) == corners;
-                    if (is_corners && count < 3) {
-                        throw RowError{std::to_string(std::int64_t(count)) +
-                                       " corners, expected at least 3"};
-                    }
-                    values.clear();
-                    for (std::uint64_t i = 0; i < static_cast<std::uint64_t>(count); ++i) {
-                        const double value = rows.scalar(property.type);
-                        if (is_corners) {
-                            if (value < 0 || value >= static_cast<double>(vertex_count)) {
-                                throw RowError{"vertex index " +
-                                               std::to_string(std::int64_t(value)) +
-                                               " out of range, expected 0 to " +
-                                               std::to_string(std::int64_t(vertex_count) - 1) +
-                                               " (" + std::to_string(vertex_count) + " vertices)"};
-                            }
-                            values.push_back(value);
-                        }
-                    }
-                    for (std::size_t i = 1; is_corners && i + 1 < values.size(); ++i) {
-                        mesh.triangles.push_back({static_cast<std::uint32_t>(values[0]),
-                                                  static_cast<std::uint32_t>(values[i]),
-                                                  static_cast<std::uint32_t>(values[i + 1])});
-                    }
-                }
-                rows.end_row();
-                if (is_vertex) {
-                    mesh.positions.push_back(position);
-                }
-                if (is_face && label >= 0) {
-                    mesh.labels.resize(mesh.triangles.size(), row_label);
-                }
-            }
-        } catch (const RowError& e) {
-            fail(ErrorCode::InvalidInput, path,
-                 std::string(e.truncated ? "truncated: " : "") + context() + ": " + e.message);
-        }
+        read_ply_rows(rows, element, is_vertex, is_face, columns, vertex_count, mesh, path);
     }
     rows.finish(path);
 }
@@ -897,6 +935,115 @@ bool is_ignored_obj_statement(std::string_view keyword) {
     return std::find(std::begin(kIgnored), std::end(kIgnored), keyword) != std::end(kIgnored);
 }
 
+/// A line of an OBJ file, for its errors.
+struct ObjLine {
+    const std::filesystem::path& path;
+    std::size_t number;
+
+    Error bad(const std::string& what) const {
+        return Error(ErrorCode::InvalidInput,
+                     path.string() + ": line " + std::to_string(number) + ": " + what);
+    }
+};
+
+/// The position of a 'v' statement (`tokens` after the keyword's split); `count` vertices came
+/// before it.
+Vec3 obj_vertex(const std::vector<std::string_view>& tokens, std::size_t count, const ObjLine& at) {
+    auto bad = [&](const std::string& what) { return at.bad(what); };
+    if (tokens.size() < 4 || tokens.size() > 8) {
+        throw bad("'v' needs 3 coordinates (optionally w or a colour), found " +
+                  std::to_string(tokens.size() - 1) + " values");
+    }
+    Vec3 p;
+    for (std::size_t k = 1; k < tokens.size(); ++k) {
+        const auto value = parse_double(tokens[k]);
+        if (!value) {
+            throw bad("vertex coordinate " + quote_token(tokens[k]) + " is not a number");
+        }
+        if (k <= 3) {
+            if (!std::isfinite(*value)) {
+                throw bad("vertex " + std::to_string(count + 1) + " has a non-finite coordinate " +
+                          quote_token(tokens[k]));
+            }
+            p[static_cast<int>(k - 1)] = *value;
+        }
+    }
+    if (count >= kMaxVertices) {
+        throw bad("more than " + std::to_string(kMaxVertices) + " vertices");
+    }
+    return p;
+}
+
+/// The corners of an 'f' statement (0-based vertex indices; relative ones resolved against the
+/// `so_far` vertices read); the largest positive index and its line go to `max_index`.
+void obj_face(const std::vector<std::string_view>& tokens,
+              std::int64_t so_far,
+              const ObjLine& at,
+              std::vector<std::uint32_t>& corners,
+              std::uint64_t& max_index,
+              std::size_t& max_index_line) {
+    auto bad = [&](const std::string& what) { return at.bad(what); };
+    const std::size_t line_number = at.number;
+    if (tokens.size() < 4) {
+        throw bad("face with " + std::to_string(tokens.size() - 1) +
+                  " corners, expected at least 3");
+    }
+    corners.clear();
+    for (std::size_t k = 1; k < tokens.size(); ++k) {
+        const std::string_view corner = tokens[k];
+        // v, v/vt, v//vn or v/vt/vn: only v is used, the others must be well formed.
+        std::string_view parts[3];
+        std::size_t part_count = 0;
+        std::size_t begin = 0;
+        while (true) {
+            const std::size_t slash = corner.find('/', begin);
+            if (part_count == 3) {
+                throw bad("face corner " + quote_token(corner) +
+                          ": expected v, v/vt, v//vn or v/vt/vn");
+            }
+            parts[part_count++] = corner.substr(begin, slash - begin);
+            if (slash == std::string_view::npos) {
+                break;
+            }
+            begin = slash + 1;
+        }
+        for (std::size_t i = 1; i < part_count; ++i) {
+            const bool may_be_empty = i == 1 && part_count == 3;
+            if (parts[i].empty() && may_be_empty) {
+                continue;
+            }
+            const auto index = parse_int(parts[i]);
+            if (!index || *index == 0) {
+                throw bad("face corner " + quote_token(corner) +
+                          ": expected v, v/vt, v//vn or v/vt/vn with non-zero integers");
+            }
+        }
+        const auto index = parse_int(parts[0]);
+        if (!index) {
+            throw bad("face corner " + quote_token(corner) + ": vertex index is not an integer");
+        }
+        if (*index == 0) {
+            throw bad("face vertex index 0 is invalid, OBJ indices start at 1");
+        } else if (*index < 0) {
+            if (*index < -so_far) {
+                throw bad("relative face vertex index " + std::to_string(*index) +
+                          " points before the first vertex, only " + std::to_string(so_far) +
+                          " vertices so far");
+            }
+            corners.push_back(static_cast<std::uint32_t>(so_far + *index));
+        } else {
+            if (static_cast<std::uint64_t>(*index) > kMaxVertices) {
+                throw bad("face vertex index " + std::to_string(*index) + " is too large");
+            }
+            if (static_cast<std::uint64_t>(*index) > max_index) {
+                max_index = static_cast<std::uint64_t>(*index);
+                max_index_line = line_number;
+            }
+            corners.push_back(static_cast<std::uint32_t>(*index - 1));
+        }
+    }
+}
+
 TriMesh read_obj(std::string_view data, const std::filesystem::path& path) {
     TriMesh mesh;
     Lines lines(data);
@@ -910,10 +1057,7 @@ TriMesh read_obj(std::string_view data, const std::filesystem::path& path) {
 
     while (lines.next(physical)) {
         const std::size_t line_number = lines.number();
-        auto bad = [&](const std::string& what) {
-            return Error(ErrorCode::InvalidInput,
-                         path.string() + ": line " + std::to_string(line_number) + ": " + what);
-        };
+        const ObjLine at{path, line_number};
         // Join continuation lines ending in a backslash.
         logical.assign(physical);
         while (!logical.empty() && logical.back() == '\\') {
@@ -933,95 +1077,16 @@ TriMesh read_obj(std::string_view data, const std::filesystem::path& path) {
         }
         const std::string_view keyword = tokens[0];
         if (keyword == "v") {
-            if (tokens.size() < 4 || tokens.size() > 8) {
-                throw bad("'v' needs 3 coordinates (optionally w or a colour), found " +
-                          std::to_string(tokens.size() - 1) + " values");
-            }
-            Vec3 p;
-            for (std::size_t k = 1; k < tokens.size(); ++k) {
-                const auto value = parse_double(tokens[k]);
-                if (!value) {
-                    throw bad("vertex coordinate " + quote_token(tokens[k]) + " is not a number");
-                }
-                if (k <= 3) {
-                    if (!std::isfinite(*value)) {
-                        throw bad("vertex " + std::to_string(mesh.positions.size() + 1) +
-                                  " has a non-finite coordinate " + quote_token(tokens[k]));
-                    }
-                    p[static_cast<int>(k - 1)] = *value;
-                }
-            }
-            if (mesh.positions.size() >= kMaxVertices) {
-                throw bad("more than " + std::to_string(kMaxVertices) + " vertices");
-            }
-            mesh.positions.push_back(p);
+            mesh.positions.push_back(obj_vertex(tokens, mesh.positions.size(), at));
         } else if (keyword == "f") {
-            if (tokens.size() < 4) {
-                throw bad("face with " + std::to_string(tokens.size() - 1) +
-                          " corners, expected at least 3");
-            }
-            corners.clear();
-            for (std::size_t k = 1; k < tokens.size(); ++k) {
-                const std::string_view corner = tokens[k];
-                // v, v/vt, v//vn or v/vt/vn: only v is used, the others must be well formed.
-                std::string_view parts[3];
-                std::size_t part_count = 0;
-                std::size_t begin = 0;
-                while (true) {
-                    const std::size_t slash = corner.find('/', begin);
-                    if (part_count == 3) {
-                        throw bad("face corner " + quote_token(corner) +
-                                  ": expected v, v/vt, v//vn or v/vt/vn");
-                    }
-                    parts[part_count++] = corner.substr(begin, slash - begin);
-                    if (slash == std::string_view::npos) {
-                        break;
-                    }
-                    begin = slash + 1;
-                }
-                for (std::size_t i = 1; i < part_count; ++i) {
-                    const bool may_be_empty = i == 1 && part_count == 3;
-                    if (parts[i].empty() && may_be_empty) {
-                        continue;
-                    }
-                    const auto index = parse_int(parts[i]);
-                    if (!index || *index == 0) {
-                        throw bad("face corner " + quote_token(corner) +
-                                  ": expected v, v/vt, v//vn or v/vt/vn with non-zero integers");
-                    }
-                }
-                const auto index = parse_int(parts[0]);
-                if (!index) {
-                    throw bad("face corner " + quote_token(corner) +
-                              ": vertex index is not an integer");
-                }
-                const auto so_far = static_cast<std::int64_t>(mesh.positions.size());
-                if (*index == 0) {
-                    throw bad("face vertex index 0 is invalid, OBJ indices start at 1");
-                } else if (*index < 0) {
-                    if (*index < -so_far) {
-                        throw bad("relative face vertex index " + std::to_string(*index) +
-                                  " points before the first vertex, only " +
-                                  std::to_string(so_far) + " vertices so far");
-                    }
-                    corners.push_back(static_cast<std::uint32_t>(so_far + *index));
-                } else {
-                    if (static_cast<std::uint64_t>(*index) > kMaxVertices) {
-                        throw bad("face vertex index " + std::to_string(*index) + " is too large");
-                    }
-                    if (static_cast<std::uint64_t>(*index) > max_index) {
-                        max_index = static_cast<std::uint64_t>(*index);
-                        max_index_line = line_number;
-                    }
-                    corners.push_back(static_cast<std::uint32_t>(*index - 1));
-                }
-            }
+            obj_face(tokens, static_cast<std::int64_t>(mesh.positions.size()), at, corners,
+                     max_index, max_index_line);
             for (std::size_t i = 1; i + 1 < corners.size(); ++i) {
                 mesh.triangles.push_back({corners[0], corners[i], corners[i + 1]});
             }
         } else if (!is_ignored_obj_statement(keyword)) {
-            throw bad("unknown statement " + quote_token(keyword) +
-                      ", expected v, f or another OBJ keyword");
+            throw at.bad("unknown statement " + quote_token(keyword) +
+                         ", expected v, f or another OBJ keyword");
         }
     }
     if (max_index > mesh.positions.size()) {
