@@ -50,6 +50,8 @@ constexpr std::uint32_t kNoSite = std::numeric_limits<std::uint32_t>::max();
 /// squared doubled distances below 2^53) and the field below 2^30 nodes (8 GiB).
 constexpr std::int64_t kMaxNodesPerSide = std::int64_t(1) << 24;
 constexpr std::int64_t kMaxNodes = std::int64_t(1) << 30;
+/// A node row beyond any distance in a window.
+constexpr std::int32_t kFar = std::int32_t(1) << 24;
 
 /// Box of the pixels equal to `label` on slice k.
 PixelBox label_box(const SliceStack& stack, std::uint32_t k, std::uint16_t label) {
@@ -379,46 +381,27 @@ std::int64_t lower_envelope(const std::int32_t* column_dy,
     return count;
 }
 
-/// The field of `label` on slice k over `window` (pixel box of the label on slices k-1..k+1)
-/// grown by `margin` pixels; `own` is the label's box on slice k.
-DistanceField field_in_window(const SliceStack& stack,
-                              const SliceContourSet& set,
-                              std::uint32_t k,
-                              std::uint16_t label,
-                              const PixelBox& own,
-                              const PixelBox& window,
-                              std::int64_t margin) {
-    if (own.empty()) {
-        throw Error(ErrorCode::InvalidInput,
-                    where(k, label) + ": the label is absent from the slice (no pixel)");
-    }
-    DistanceField field;
-    field.label = label;
-    field.slice = k;
-    const std::int64_t ox = window.x0 - margin;
-    const std::int64_t oy = window.y0 - margin;
-    const std::int64_t pw = window.x1 - window.x0 + 2 * margin;  // window pixels per row
-    const std::int64_t ph = window.y1 - window.y0 + 2 * margin;
-    const std::int64_t nx = 2 * pw + 1;
-    const std::int64_t ny = 2 * ph + 1;
-    if (nx >= kMaxNodesPerSide || ny >= kMaxNodesPerSide || nx * ny > kMaxNodes) {
-        throw Error(ErrorCode::InvalidInput, where(k, label) + ": window of " + std::to_string(nx) +
-                                                 " x " + std::to_string(ny) +
-                                                 " nodes is too large (at most 2^30 nodes, 2^24 " +
-                                                 "per side); reduce margin_px");
-    }
-    field.origin_x = static_cast<double>(ox);
-    field.origin_y = static_cast<double>(oy);
-    field.nx = static_cast<std::uint32_t>(nx);
-    field.ny = static_cast<std::uint32_t>(ny);
-    const std::size_t nodes = static_cast<std::size_t>(nx * ny);
-    assign_large(field.node_sites, nodes, kNoSite);
-    std::uint32_t* closest = field.node_sites.data();
-    Scratch& scratch = thread_scratch();
-    scratch.site_x.clear();
-    scratch.site_y.clear();
+/// The field's window of nodes: its pixel origin and size, and its node counts per side.
+struct Window {
+    std::int64_t ox = 0;
+    std::int64_t oy = 0;
+    std::int64_t pw = 0;  ///< window pixels per row
+    std::int64_t ph = 0;
+    std::int64_t nx = 0;  ///< nodes per row: 2 pw + 1
+    std::int64_t ny = 0;
+};
 
-    // ---- sites: contour points and unit-segment midpoints, marked in `closest`
+/// The sites of `label`'s contours on slice k: contour points and unit-segment midpoints, each
+/// marked in `closest` and numbered in `field.sites` (nodes in scratch.site_x and site_y).
+void add_contour_sites(const SliceContourSet& set,
+                       std::uint32_t k,
+                       std::uint16_t label,
+                       const Window& w,
+                       DistanceField& field,
+                       Scratch& scratch) {
+    const std::int64_t nx = w.nx;
+    const std::int64_t ny = w.ny;
+    std::uint32_t* closest = field.node_sites.data();
     auto node_of = [&](Vec2 p, std::size_t c, std::size_t i, std::int64_t& X, std::int64_t& Y) {
         const double dx = 2.0 * (p.x - field.origin_x);
         const double dy = 2.0 * (p.y - field.origin_y);
@@ -488,9 +471,19 @@ DistanceField field_in_window(const SliceStack& stack,
     for (std::size_t s = 0; s < field.sites.size(); ++s) {
         field.site_nodes[s] = {scratch.site_x[s], scratch.site_y[s]};
     }
+}
 
-    // ---- window mask, one pixel of background padding (pixels outside the image are
-    // background); the side of every node is classified row by row below
+/// The label's pixels over the window with one pixel of background padding (pixels outside the
+/// image are background), in scratch.mask; returns its row length.
+std::size_t fill_window_mask(const SliceStack& stack,
+                             std::uint32_t k,
+                             std::uint16_t label,
+                             const Window& w,
+                             Scratch& scratch) {
+    const std::int64_t ox = w.ox;
+    const std::int64_t oy = w.oy;
+    const std::int64_t pw = w.pw;
+    const std::int64_t ph = w.ph;
     const std::size_t mask_width = static_cast<std::size_t>(pw + 2);
     scratch.mask.assign(mask_width * static_cast<std::size_t>(ph + 2), 0);
     {
@@ -508,21 +501,14 @@ DistanceField field_in_window(const SliceStack& stack,
             }
         }
     }
-    const std::size_t width = static_cast<std::size_t>(nx);
-    scratch.side.resize(width);
-    std::int8_t* side = scratch.side.data();
-    auto mismatch = [&](std::int64_t Y, std::int64_t X, bool is_site) {
-        return Error(ErrorCode::InvalidInput,
-                     where(k, label) + ": the contours do not match the label image at (" +
-                         format_px(field.origin_x + 0.5 * X) + ", " +
-                         format_px(field.origin_y + 0.5 * Y) + "): " +
-                         (is_site ? "a contour point with equal pixels around it"
-                                  : "a boundary between pixels on no contour"));
-    };
+    return mask_width;
+}
 
-    // ---- sites by row (counting sort), and for each the next site below in its column
-    constexpr std::int32_t kFar = std::int32_t(1) << 24;  // beyond any distance in the window
-    const std::size_t site_count = field.sites.size();
+/// The sites by row (counting sort), and for each the next site below in its column; the
+/// per-column cursors start at the bottom.
+void sort_sites_by_row(const Window& w, std::size_t site_count, Scratch& scratch) {
+    const std::int64_t ny = w.ny;
+    const std::size_t width = static_cast<std::size_t>(w.nx);
     const std::int32_t* site_x = scratch.site_x.data();
     const std::int32_t* site_y = scratch.site_y.data();
     scratch.row_begin.assign(static_cast<std::size_t>(ny) + 1, 0);
@@ -546,8 +532,6 @@ DistanceField field_in_window(const SliceStack& stack,
     scratch.above_site.assign(width, kNoSite);
     scratch.below_row.assign(width, 2 * kFar);
     scratch.below_site.assign(width, kNoSite);
-    std::int32_t* above_row = scratch.above_row.data();
-    std::uint32_t* above_site = scratch.above_site.data();
     std::int32_t* below_row = scratch.below_row.data();
     std::uint32_t* below_site = scratch.below_site.data();
     scratch.next_row.resize(site_count);
@@ -564,9 +548,41 @@ DistanceField field_in_window(const SliceStack& stack,
             below_site[X] = s;
         }
     }
+}
 
-    // ---- per row: the nearest site of each column (ties to the smaller site index), then the
-    // lower envelope of the columns' parabolas, signed by the node's side
+/// Per row: the nearest site of each column (ties to the smaller site index), then the lower
+/// envelope of the columns' parabolas, signed by the node's side; checks on the way that the
+/// row's sites are exactly its boundary nodes.
+void sweep_rows(std::uint32_t k,
+                std::uint16_t label,
+                const Window& w,
+                std::size_t mask_width,
+                DistanceField& field,
+                Scratch& scratch) {
+    const std::int64_t nx = w.nx;
+    const std::int64_t ny = w.ny;
+    std::uint32_t* closest = field.node_sites.data();
+    const std::size_t width = static_cast<std::size_t>(nx);
+    scratch.side.resize(width);
+    std::int8_t* side = scratch.side.data();
+    auto mismatch = [&](std::int64_t Y, std::int64_t X, bool is_site) {
+        return Error(ErrorCode::InvalidInput,
+                     where(k, label) + ": the contours do not match the label image at (" +
+                         format_px(field.origin_x + 0.5 * X) + ", " +
+                         format_px(field.origin_y + 0.5 * Y) + "): " +
+                         (is_site ? "a contour point with equal pixels around it"
+                                  : "a boundary between pixels on no contour"));
+    };
+
+    const std::int32_t* site_x = scratch.site_x.data();
+    const std::uint32_t* row_begin = scratch.row_begin.data();
+    const std::uint32_t* row_site = scratch.row_site.data();
+    std::int32_t* above_row = scratch.above_row.data();
+    std::uint32_t* above_site = scratch.above_site.data();
+    std::int32_t* below_row = scratch.below_row.data();
+    std::uint32_t* below_site = scratch.below_site.data();
+    const std::int32_t* next_row = scratch.next_row.data();
+    const std::uint32_t* next_site = scratch.next_site.data();
     scratch.column_dy.resize(width);
     scratch.column_site.resize(width);
     scratch.apex.resize(width);
@@ -653,6 +669,51 @@ DistanceField field_in_window(const SliceStack& stack,
             c[X] |= all_if(side[X] < 0) & DistanceField::kInside;  // note: sites have side 0
         }
     }
+}
+
+/// The field of `label` on slice k over `window` (pixel box of the label on slices k-1..k+1)
+/// grown by `margin` pixels; `own` is the label's box on slice k.
+DistanceField field_in_window(const SliceStack& stack,
+                              const SliceContourSet& set,
+                              std::uint32_t k,
+                              std::uint16_t label,
+                              const PixelBox& own,
+                              const PixelBox& window,
+                              std::int64_t margin) {
+    if (own.empty()) {
+        throw Error(ErrorCode::InvalidInput,
+                    where(k, label) + ": the label is absent from the slice (no pixel)");
+    }
+    DistanceField field;
+    field.label = label;
+    field.slice = k;
+    const std::int64_t ox = window.x0 - margin;
+    const std::int64_t oy = window.y0 - margin;
+    const std::int64_t pw = window.x1 - window.x0 + 2 * margin;  // window pixels per row
+    const std::int64_t ph = window.y1 - window.y0 + 2 * margin;
+    const std::int64_t nx = 2 * pw + 1;
+    const std::int64_t ny = 2 * ph + 1;
+    if (nx >= kMaxNodesPerSide || ny >= kMaxNodesPerSide || nx * ny > kMaxNodes) {
+        throw Error(ErrorCode::InvalidInput, where(k, label) + ": window of " + std::to_string(nx) +
+                                                 " x " + std::to_string(ny) +
+                                                 " nodes is too large (at most 2^30 nodes, 2^24 " +
+                                                 "per side); reduce margin_px");
+    }
+    field.origin_x = static_cast<double>(ox);
+    field.origin_y = static_cast<double>(oy);
+    field.nx = static_cast<std::uint32_t>(nx);
+    field.ny = static_cast<std::uint32_t>(ny);
+    const std::size_t nodes = static_cast<std::size_t>(nx * ny);
+    assign_large(field.node_sites, nodes, kNoSite);
+    Scratch& scratch = thread_scratch();
+    scratch.site_x.clear();
+    scratch.site_y.clear();
+
+    const Window w{ox, oy, pw, ph, nx, ny};
+    add_contour_sites(set, k, label, w, field, scratch);
+    const std::size_t mask_width = fill_window_mask(stack, k, label, w, scratch);
+    sort_sites_by_row(w, field.sites.size(), scratch);
+    sweep_rows(k, label, w, mask_width, field, scratch);
 
     // ---- lower bound outside the window (see DistanceField)
     field.outside_window_px = static_cast<double>(
