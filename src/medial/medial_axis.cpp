@@ -219,22 +219,13 @@ private:
     std::vector<std::vector<double>> arcs_;
 };
 
-/// Traces the boundary of {sum < 0} (marching squares, inside on the left) and attaches the
-/// correspondences.
-void trace_label(std::uint16_t label,
-                 const SumGrid& g,
-                 const DistanceField& fa,
-                 const DistanceField& fb,
-                 const SliceContourSet& lower,
-                 const SliceContourSet& upper,
-                 std::vector<MedialCurve>& curves) {
+/// Marching squares on {sum < 0}: for each grid edge the boundary crosses, the next such edge
+/// along the boundary (inside on the left), -1 elsewhere. Grid edge ids: 2 * node + 0 for the
+/// edge to the right, 2 * node + 1 for the edge down.
+std::vector<std::int64_t> boundary_links(const SumGrid& g) {
     const std::int64_t nx = g.nx;
     const std::int64_t ny = g.ny;
-    if (nx < 2 || ny < 2) {
-        return;
-    }
     auto inside = [&](std::int64_t i, std::int64_t j) { return g.at(i, j) < 0.0f; };
-    // Grid edge ids: 2 * node + 0 for the edge to the right, 2 * node + 1 for the edge down.
     std::vector<std::int64_t> next(static_cast<std::size_t>(2 * nx * ny), -1);
     for (std::int64_t j = 0; j + 1 < ny; ++j) {
         for (std::int64_t i = 0; i + 1 < nx; ++i) {
@@ -301,43 +292,69 @@ void trace_label(std::uint16_t label,
         }
     }
 
-    auto crossing = [&](std::int64_t id) {
-        const std::int64_t node = id / 2;
-        std::int64_t pi = node % nx;
-        std::int64_t pj = node / nx;
-        std::int64_t qi = (id % 2 == 0) ? pi + 1 : pi;
-        std::int64_t qj = (id % 2 == 0) ? pj : pj + 1;
-        // note: parametrised from the inside node so both cells compute the same point
-        if (!inside(pi, pj)) {
-            std::swap(pi, qi);
-            std::swap(pj, qj);
-        }
-        const double sp = g.at(pi, pj);
-        const double sq = g.at(qi, qj);
-        const double t = sp / (sp - sq);
-        return g.position(pi + t * (qi - pi), pj + t * (qj - pj));
-    };
-    auto nodes_of = [&](std::int64_t id) {
-        const std::int64_t node = id / 2;
-        const std::int64_t i = node % nx;
-        const std::int64_t j = node / nx;
-        return std::array<std::int64_t, 4>{i, j, (id % 2 == 0) ? i + 1 : i,
-                                           (id % 2 == 0) ? j : j + 1};
-    };
-    auto closest_site = [](const DistanceField& f, const SliceContourSet& set, std::int64_t ox,
-                           std::int64_t oy, const std::array<std::int64_t, 4>& n, Vec2 p,
-                           double& distance) {
-        const std::uint32_t s0 =
-            f.closest(static_cast<std::size_t>((n[1] + oy) * f.nx + n[0] + ox));
-        const std::uint32_t s1 =
-            f.closest(static_cast<std::size_t>((n[3] + oy) * f.nx + n[2] + ox));
-        const double d0 = norm(p - site_position(set, f.sites[s0]));
-        const double d1 = norm(p - site_position(set, f.sites[s1]));
-        const bool second = d1 < d0 || (d1 == d0 && s1 < s0);
-        distance = second ? d1 : d0;
-        return f.sites[second ? s1 : s0];
-    };
+    return next;
+}
 
+/// Where the boundary crosses grid edge `id`.
+Vec2 edge_crossing(const SumGrid& g, std::int64_t id) {
+    const std::int64_t nx = g.nx;
+    auto inside = [&](std::int64_t i, std::int64_t j) { return g.at(i, j) < 0.0f; };
+    const std::int64_t node = id / 2;
+    std::int64_t pi = node % nx;
+    std::int64_t pj = node / nx;
+    std::int64_t qi = (id % 2 == 0) ? pi + 1 : pi;
+    std::int64_t qj = (id % 2 == 0) ? pj : pj + 1;
+    // note: parametrised from the inside node so both cells compute the same point
+    if (!inside(pi, pj)) {
+        std::swap(pi, qi);
+        std::swap(pj, qj);
+    }
+    const double sp = g.at(pi, pj);
+    const double sq = g.at(qi, qj);
+    const double t = sp / (sp - sq);
+    return g.position(pi + t * (qi - pi), pj + t * (qj - pj));
+}
+
+/// The two grid nodes of edge `id`: (i0, j0, i1, j1).
+std::array<std::int64_t, 4> edge_nodes(const SumGrid& g, std::int64_t id) {
+    const std::int64_t nx = g.nx;
+    const std::int64_t node = id / 2;
+    const std::int64_t i = node % nx;
+    const std::int64_t j = node / nx;
+    return std::array<std::int64_t, 4>{i, j, (id % 2 == 0) ? i + 1 : i, (id % 2 == 0) ? j : j + 1};
+}
+
+/// The closer to `p` of the closest sites of field `f` at the nodes `n` (grid nodes, offset by
+/// (ox, oy) in the field); its distance goes to `distance`.
+ContourSite closest_site(const DistanceField& f,
+                         const SliceContourSet& set,
+                         std::int64_t ox,
+                         std::int64_t oy,
+                         const std::array<std::int64_t, 4>& n,
+                         Vec2 p,
+                         double& distance) {
+    const std::uint32_t s0 = f.closest(static_cast<std::size_t>((n[1] + oy) * f.nx + n[0] + ox));
+    const std::uint32_t s1 = f.closest(static_cast<std::size_t>((n[3] + oy) * f.nx + n[2] + ox));
+    const double d0 = norm(p - site_position(set, f.sites[s0]));
+    const double d1 = norm(p - site_position(set, f.sites[s1]));
+    const bool second = d1 < d0 || (d1 == d0 && s1 < s0);
+    distance = second ? d1 : d0;
+    return f.sites[second ? s1 : s0];
+}
+
+/// Traces the boundary of {sum < 0} (marching squares, inside on the left) and attaches the
+/// correspondences.
+void trace_label(std::uint16_t label,
+                 const SumGrid& g,
+                 const DistanceField& fa,
+                 const DistanceField& fb,
+                 const SliceContourSet& lower,
+                 const SliceContourSet& upper,
+                 std::vector<MedialCurve>& curves) {
+    if (g.nx < 2 || g.ny < 2) {
+        return;
+    }
+    const std::vector<std::int64_t> next = boundary_links(g);
     std::vector<bool> used(next.size(), false);
     for (std::int64_t start = 0; start < static_cast<std::int64_t>(next.size()); ++start) {
         if (next[start] < 0 || used[start]) {
@@ -348,11 +365,11 @@ void trace_label(std::uint16_t label,
         std::int64_t id = start;
         do {
             used[id] = true;
-            const Vec2 p = crossing(id);
+            const Vec2 p = edge_crossing(g, id);
             if (curve.points.empty() || !(curve.points.back().position == p)) {
                 MedialPoint m;
                 m.position = p;
-                const auto n = nodes_of(id);
+                const auto n = edge_nodes(g, id);
                 m.lower =
                     closest_site(fa, lower, g.offset_a_x, g.offset_a_y, n, p, m.lower_distance_px);
                 m.upper =
