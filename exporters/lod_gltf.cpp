@@ -390,19 +390,10 @@ std::vector<MultiresCut> lod_cuts(const MultiresMesh& model,
     return cuts;
 }
 
-LodStats write_lod_gltf(const std::filesystem::path& path,
-                        const std::vector<LodObject>& objects,
-                        const SliceFrame& frame,
-                        const SceneInfo& info,
-                        const LodOptions& options) {
-    if (lowercase_extension(path) != ".glb") {
-        fail(ErrorCode::Unsupported, path,
-             "unsupported extension '" + path.extension().string() + "', expected .glb");
-    }
-    check_options(path, options);
-    if (objects.empty()) {
-        fail(ErrorCode::InvalidInput, path, "no objects to write, expected at least one");
-    }
+namespace {
+
+/// Refuses objects without a quantized model or with a colour outside sRGB [0, 1].
+void check_objects(const std::filesystem::path& path, const std::vector<LodObject>& objects) {
     for (std::size_t i = 0; i < objects.size(); ++i) {
         const LodObject& o = objects[i];
         const std::string what = "object " + std::to_string(i) + " '" + object_name(o) + "'";
@@ -420,60 +411,26 @@ LodStats write_lod_gltf(const std::filesystem::path& path,
             }
         }
     }
-    const detail::StorageFrame storage = detail::storage_frame(path, frame);
-    const bool draco = options.compression == LodCompression::Draco;
+}
 
-    // Encode every level of every object.
-    std::vector<std::vector<EncodedLevel>> levels(objects.size());
-    std::vector<MeshoptGrid> grids(objects.size());
-    std::vector<double> radius_mm(objects.size(), 0.0);
-    for (std::size_t o = 0; o < objects.size(); ++o) {
-        const MultiresMesh& model = *objects[o].model;
-        if (!draco) {
-            grids[o] = meshopt_grid(model, storage);
-        }
-        const std::vector<MultiresCut> cuts = lod_cuts(model, frame.error_mm_per_px, options);
-        for (std::size_t i = 0; i < cuts.size(); ++i) {
-            const std::string where =
-                "object '" + object_name(objects[o]) + "' LOD" + std::to_string(i);
-            EncodedLevel level;
-            level.cut = cuts[i];
-            const TriMesh mesh = cut_mesh(model, level.cut);
-            level.triangles = mesh.triangles.size();
-            level.vertices = mesh.positions.size();
-            level.model_level = 0;
-            for (const std::uint32_t c : level.cut.clusters) {
-                level.model_level = std::max(level.model_level, model.clusters[c].level);
-            }
-            const StorageMesh m = storage_mesh(mesh, storage, model.grid_step);
-            const auto normals = storage_normals(m);
-            if (i == 0) {
-                // Bounding sphere of the finest level in the patient frame: the box's half
-                // diagonal (the patient -> glTF map is a rotation and scale, so boxes stay boxes).
-                Vec3 lo{std::numeric_limits<double>::infinity(),
-                        std::numeric_limits<double>::infinity(),
-                        std::numeric_limits<double>::infinity()};
-                Vec3 hi = -1.0 * lo;
-                for (const auto& p : m.points) {
-                    const Vec3 w = transform(storage.matrix, {p[0], p[1], p[2]});
-                    for (int k = 0; k < 3; ++k) {
-                        lo[k] = std::min(lo[k], w[k]);
-                        hi[k] = std::max(hi[k], w[k]);
-                    }
-                }
-                radius_mm[o] = 0.5 * norm(hi - lo);
-            }
-            if (draco) {
-                encode_draco(path, where, m, normals, model.grid_step, options, level);
-            } else {
-                encode_meshopt(path, where, m, normals, grids[o], level);
-            }
-            levels[o].push_back(std::move(level));
+/// Radius of the bounding sphere of `m` in the patient frame: its box's half diagonal (the
+/// patient -> glTF map is a rotation and scale, so boxes stay boxes).
+double bounding_radius_mm(const StorageMesh& m, const detail::StorageFrame& storage) {
+    Vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+            std::numeric_limits<double>::infinity()};
+    Vec3 hi = -1.0 * lo;
+    for (const auto& p : m.points) {
+        const Vec3 w = transform(storage.matrix, {p[0], p[1], p[2]});
+        for (int k = 0; k < 3; ++k) {
+            lo[k] = std::min(lo[k], w[k]);
+            hi[k] = std::max(hi[k], w[k]);
         }
     }
+    return 0.5 * norm(hi - lo);
+}
 
-    detail::GltfAssembly a;
-    Json& json = a.json;
+/// The glTF document's asset, extensions, scene and the patient root node.
+void start_document(Json& json, const SceneInfo& info, bool draco) {
     json["asset"] = {{"version", "2.0"}, {"generator", info.generator}};
     json["extensionsUsed"] = Json::array();
     json["extensionsRequired"] = Json::array();
@@ -497,6 +454,145 @@ LodStats write_lod_gltf(const std::filesystem::path& path,
     json["nodes"].push_back({{"name", detail::kRootNodeName},
                              {"matrix", json_array(detail::kPatientToGltf)},
                              {"children", Json::array()}});
+}
+
+/// The nodes of one object: LOD0 under the root, naming the coarser ones (after it, outside the
+/// hierarchy) in MSFT_lod, with their bounds and screen coverages in the extras.
+void add_object_nodes(Json& json,
+                      const LodObject& object,
+                      const std::vector<EncodedLevel>& levels,
+                      const std::vector<LodLevelStats>& stats,
+                      const std::vector<int>& mesh_of,
+                      const std::array<double, 16>& matrix,
+                      double radius_mm,
+                      const SceneInfo& info,
+                      const LodOptions& options) {
+    const std::size_t n = levels.size();
+    const int first = static_cast<int>(json["nodes"].size());
+    // Bounds as written (7 digits, rounded up); the coverage is computed from them.
+    std::vector<double> written(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        written[i] = short_up(stats[i].error_mm);
+    }
+    const Json errors = json_array(written);
+    Json coverage = Json::array();
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+        // Level i + 1 projects its bound to at most screen_error_px while the sphere's
+        // projected radius R (px) <= screen_error_px * r / e_{i+1}; coverage =
+        // pi (R / H)^2 / aspect, rounded down (a smaller threshold keeps level i longer).
+        const double r_px = options.screen_error_px * radius_mm / written[i + 1];
+        const double c =
+            std::numbers::pi * std::pow(r_px / options.viewport_height_px, 2) / options.aspect;
+        coverage.push_back(std::clamp(short_down(c), 0.0, 1.0));
+    }
+    coverage.push_back(0.0);  // the coarsest is never culled
+    for (std::size_t i = 0; i < n; ++i) {
+        Json node;
+        node["name"] = object_name(object) + "_LOD" + std::to_string(i);
+        node["mesh"] = mesh_of[i];
+        node["matrix"] = json_array(matrix);
+        Json extras = {{"lod", i},
+                       {"error_mm", errors[i]},
+                       {"triangles", levels[i].triangles},
+                       {"label", object.label},
+                       {"source", info.source},
+                       {"spacing_mm", json_array(info.spacing_mm)},
+                       {"units", "mm"}};
+        if (i == 0) {
+            if (n > 1) {
+                Json ids = Json::array();
+                for (std::size_t k = 1; k < n; ++k) {
+                    ids.push_back(first + static_cast<int>(k));
+                }
+                node["extensions"][kLod] = {{"ids", ids}};
+            }
+            extras["MSFT_screencoverage"] = coverage;
+            extras["lod_error_mm"] = errors;
+            extras["screen_error_px"] = options.screen_error_px;
+            extras["viewport_height_px"] = options.viewport_height_px;
+            extras["aspect"] = options.aspect;
+            extras["bounding_radius_mm"] = short_up(radius_mm);
+            json["nodes"][0]["children"].push_back(first);
+        }
+        node["extras"] = extras;
+        json["nodes"].push_back(node);
+    }
+}
+
+/// Every level of one object (its cuts at the options' bounds), encoded; `radius_mm` gets the
+/// bounding radius of its finest level.
+std::vector<EncodedLevel> encode_levels(const std::filesystem::path& path,
+                                        const LodObject& object,
+                                        const detail::StorageFrame& storage,
+                                        const MeshoptGrid& grid,
+                                        double error_mm_per_px,
+                                        const LodOptions& options,
+                                        double& radius_mm) {
+    const MultiresMesh& model = *object.model;
+    const bool draco = options.compression == LodCompression::Draco;
+    std::vector<EncodedLevel> levels;
+    const std::vector<MultiresCut> cuts = lod_cuts(model, error_mm_per_px, options);
+    for (std::size_t i = 0; i < cuts.size(); ++i) {
+        const std::string where = "object '" + object_name(object) + "' LOD" + std::to_string(i);
+        EncodedLevel level;
+        level.cut = cuts[i];
+        const TriMesh mesh = cut_mesh(model, level.cut);
+        level.triangles = mesh.triangles.size();
+        level.vertices = mesh.positions.size();
+        level.model_level = 0;
+        for (const std::uint32_t c : level.cut.clusters) {
+            level.model_level = std::max(level.model_level, model.clusters[c].level);
+        }
+        const StorageMesh m = storage_mesh(mesh, storage, model.grid_step);
+        const auto normals = storage_normals(m);
+        if (i == 0) {
+            radius_mm = bounding_radius_mm(m, storage);
+        }
+        if (draco) {
+            encode_draco(path, where, m, normals, model.grid_step, options, level);
+        } else {
+            encode_meshopt(path, where, m, normals, grid, level);
+        }
+        levels.push_back(std::move(level));
+    }
+    return levels;
+}
+
+}  // namespace
+
+LodStats write_lod_gltf(const std::filesystem::path& path,
+                        const std::vector<LodObject>& objects,
+                        const SliceFrame& frame,
+                        const SceneInfo& info,
+                        const LodOptions& options) {
+    if (lowercase_extension(path) != ".glb") {
+        fail(ErrorCode::Unsupported, path,
+             "unsupported extension '" + path.extension().string() + "', expected .glb");
+    }
+    check_options(path, options);
+    if (objects.empty()) {
+        fail(ErrorCode::InvalidInput, path, "no objects to write, expected at least one");
+    }
+    check_objects(path, objects);
+    const detail::StorageFrame storage = detail::storage_frame(path, frame);
+    const bool draco = options.compression == LodCompression::Draco;
+
+    // Encode every level of every object.
+    std::vector<std::vector<EncodedLevel>> levels(objects.size());
+    std::vector<MeshoptGrid> grids(objects.size());
+    std::vector<double> radius_mm(objects.size(), 0.0);
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        const MultiresMesh& model = *objects[o].model;
+        if (!draco) {
+            grids[o] = meshopt_grid(model, storage);
+        }
+        levels[o] = encode_levels(path, objects[o], storage, grids[o], frame.error_mm_per_px,
+                                  options, radius_mm[o]);
+    }
+
+    detail::GltfAssembly a;
+    Json& json = a.json;
+    start_document(json, info, draco);
 
     // Materials, meshes coarse-first in the buffer (every object's coarsest level, then the next).
     std::vector<std::vector<int>> mesh_of(objects.size());
@@ -566,56 +662,8 @@ LodStats write_lod_gltf(const std::filesystem::path& path,
                                                     1};
             matrix = multiply(storage.matrix, dequantize);
         }
-        const std::size_t n = levels[o].size();
-        const int first = static_cast<int>(json["nodes"].size());
-        // Bounds as written (7 digits, rounded up); the coverage is computed from them.
-        std::vector<double> written(n);
-        for (std::size_t i = 0; i < n; ++i) {
-            written[i] = short_up(stats.objects[o][i].error_mm);
-        }
-        const Json errors = json_array(written);
-        Json coverage = Json::array();
-        for (std::size_t i = 0; i + 1 < n; ++i) {
-            // Level i + 1 projects its bound to at most screen_error_px while the sphere's
-            // projected radius R (px) <= screen_error_px * r / e_{i+1}; coverage =
-            // pi (R / H)^2 / aspect, rounded down (a smaller threshold keeps level i longer).
-            const double r_px = options.screen_error_px * radius_mm[o] / written[i + 1];
-            const double c =
-                std::numbers::pi * std::pow(r_px / options.viewport_height_px, 2) / options.aspect;
-            coverage.push_back(std::clamp(short_down(c), 0.0, 1.0));
-        }
-        coverage.push_back(0.0);  // the coarsest is never culled
-        for (std::size_t i = 0; i < n; ++i) {
-            Json node;
-            node["name"] = object_name(object) + "_LOD" + std::to_string(i);
-            node["mesh"] = mesh_of[o][i];
-            node["matrix"] = json_array(matrix);
-            Json extras = {{"lod", i},
-                           {"error_mm", errors[i]},
-                           {"triangles", levels[o][i].triangles},
-                           {"label", object.label},
-                           {"source", info.source},
-                           {"spacing_mm", json_array(info.spacing_mm)},
-                           {"units", "mm"}};
-            if (i == 0) {
-                if (n > 1) {
-                    Json ids = Json::array();
-                    for (std::size_t k = 1; k < n; ++k) {
-                        ids.push_back(first + static_cast<int>(k));
-                    }
-                    node["extensions"][kLod] = {{"ids", ids}};
-                }
-                extras["MSFT_screencoverage"] = coverage;
-                extras["lod_error_mm"] = errors;
-                extras["screen_error_px"] = options.screen_error_px;
-                extras["viewport_height_px"] = options.viewport_height_px;
-                extras["aspect"] = options.aspect;
-                extras["bounding_radius_mm"] = short_up(radius_mm[o]);
-                json["nodes"][0]["children"].push_back(first);
-            }
-            node["extras"] = extras;
-            json["nodes"].push_back(node);
-        }
+        add_object_nodes(json, object, levels[o], stats.objects[o], mesh_of[o], matrix,
+                         radius_mm[o], info, options);
     }
     a.finish_buffers();
     const std::string bytes = detail::glb_container(path, json.dump(), a.bin);
