@@ -64,14 +64,8 @@ void add_spacing_flag(CLI::App& app, std::optional<strata::Vec3>& spacing) {
         ->type_name("X,Y,Z");
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-    CLI::App app{"strata: error-bounded multiresolution surfaces from stacks of segmented slices"};
-    app.require_subcommand(1);
-    app.set_version_flag("--version", strata::kGenerator);
-
-    strata::cli::BuildOptions build;
+/// `strata build` and its options, read into `build`.
+CLI::App* add_build_command(CLI::App& app, strata::cli::BuildOptions& build) {
     CLI::App* build_cmd = app.add_subcommand(
         "build", "Reconstruct surfaces from a label stack (default: the built-in phantom)");
     build_cmd->add_option("input", build.input,
@@ -158,8 +152,11 @@ int main(int argc, char** argv) {
                         "Write OUTPUT/scene.glb with EXT_meshopt_compression (16-bit positions per "
                         "object) for pipelines that prefer meshopt's decode speed");
     add_output_flags(*build_cmd, build.output);
+    return build_cmd;
+}
 
-    strata::cli::PhantomCommandOptions phantom;
+/// `strata phantom` and its options.
+CLI::App* add_phantom_command(CLI::App& app, strata::cli::PhantomCommandOptions& phantom) {
     CLI::App* phantom_cmd =
         app.add_subcommand("phantom", "Write a built-in analytic phantom as a label stack");
     phantom_cmd->add_option("name", phantom.name, "Phantom name (see --list)");
@@ -174,8 +171,11 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     phantom_cmd->add_flag("--list", phantom.list, "List the phantom names");
     add_output_flags(*phantom_cmd, phantom.output_options);
+    return phantom_cmd;
+}
 
-    strata::cli::ExtractOptions extract;
+/// `strata extract` and its options.
+CLI::App* add_extract_command(CLI::App& app, strata::cli::ExtractOptions& extract) {
     CLI::App* extract_cmd = app.add_subcommand(
         "extract",
         "Write one resolution of every object within an error bound, from a label stack "
@@ -214,8 +214,11 @@ int main(int argc, char** argv) {
     extract_cmd->add_option("--threads", extract.threads, "Worker threads (0: all cores)")
         ->capture_default_str();
     add_output_flags(*extract_cmd, extract.output_options);
+    return extract_cmd;
+}
 
-    strata::cli::InfoOptions info;
+/// `strata info` and its options.
+CLI::App* add_info_command(CLI::App& app, strata::cli::InfoOptions& info) {
     CLI::App* info_cmd = app.add_subcommand(
         "info", "Describe an input stack, or a progressive .glb/.gltf written by strata build");
     info_cmd->add_option("input", info.input, "Input file or folder, or a strata .glb/.gltf")
@@ -224,6 +227,24 @@ int main(int argc, char** argv) {
     info_cmd->add_option("--color-table", info.color_table, "Colour table naming labels");
     add_data_file_flag(*info_cmd, info.allow_data_file);
     add_output_flags(*info_cmd, info.output);
+    return info_cmd;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"strata: error-bounded multiresolution surfaces from stacks of segmented slices"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", strata::kGenerator);
+
+    strata::cli::BuildOptions build;
+    CLI::App* build_cmd = add_build_command(app, build);
+    strata::cli::PhantomCommandOptions phantom;
+    CLI::App* phantom_cmd = add_phantom_command(app, phantom);
+    strata::cli::ExtractOptions extract;
+    CLI::App* extract_cmd = add_extract_command(app, extract);
+    strata::cli::InfoOptions info;
+    CLI::App* info_cmd = add_info_command(app, info);
 
     try {
         try {
