@@ -901,134 +901,144 @@ const std::vector<CaseEntry>& benchmark_cases() {
     return kCases;
 }
 
+/// Adds a case built without a seed.
+void add_case(std::vector<CaseEntry>& c, std::string name, std::function<Spec()> f) {
+    c.push_back({std::move(name), [f](std::optional<std::uint64_t>) { return f(); }});
+}
+
+/// T01-T19: one shape each, its topology changing along the stack or not.
+void add_shape_cases(std::vector<CaseEntry>& c) {
+    add_case(c, "t01_sphere", make_t01_sphere_spec);
+    add_case(c, "t02_ellipsoid_tilted", ellipsoid_tilted);
+    add_case(c, "t03_box_sharp", [] {
+        return single("T03", "box x in [34, 94), y in [44, 84), z in [0, 40]", 128, 128, 11, 4.0,
+                      "box", half_open_box({34, 44, 0}, {94, 84, 40}), genus_zero(1));
+    });
+    add_case(c, "t04_cylinder_aniso10", [] {
+        return single("T04", "cylinder centre (64, 64) radius 30 along z", 128, 128, 8, 10.0,
+                      "cylinder", cylinder({64, 64}, 30, 0, 70), genus_zero(1));
+    });
+    add_case(c, "t05_c_shape_twist", [] {
+        return single(
+            "T05", "annulus 30 < r <= 50 minus the wedge |theta - 6 deg k| < 35 deg", 160, 160, 20,
+            3.0, "c_shape",
+            make_solid(TwistedSector{{80, 80}, 30, 50, 35 * kDeg, 0.0, 6 * kDeg / 3.0, 0, 57}),
+            genus_zero(1));
+    });
+    add_case(c, "t06_spiral", [] {
+        return single("T06",
+                      "6 px band along r = 8 + 12 t / (2 pi), t in [0, 6 pi], rotated 2 deg "
+                      "per slice",
+                      256, 256, 10, 3.0, "spiral",
+                      make_solid(SpiralBand{
+                          {128, 128}, 8, 12 / (2 * kPi), 6 * kPi, 3, 0.0, 2 * kDeg / 3.0, 0, 27}),
+                      genus_zero(1));
+    });
+    add_case(c, "t07_star_to_circle", [] {
+        return single("T07", "5-point star (55 / 22) morphing linearly into a circle of 35", 160,
+                      160, 13, 3.0, "star", make_solid(StarMorph{{80, 80}, 5, 55, 22, 35, 0, 36}),
+                      genus_zero(1));
+    });
+    add_case(c, "t08_comb_retracting", [] {
+        return single("T08", "bar with six 4 px teeth shrinking by 6 px per slice", 192, 128, 12,
+                      3.0, "comb", comb(), genus_zero(1));
+    });
+    add_case(c, "t09_annulus_tube", [] {
+        return single("T09", "annulus 25 < r <= 50 on all slices", 128, 128, 16, 4.0, "tube",
+                      annulus({64, 64}, 25, 50, 0, 60), topology(1, {1}, 1));
+    });
+    add_case(c, "t10_internal_cavity", [] {
+        return single("T10", "disc radius 50 with a hole of radius 15 on slices 7-12", 128, 128, 20,
+                      4.0, "disc with cavity",
+                      subtract(cylinder({64, 64}, 50, 0, 76), cylinder({64, 64}, 15, 28, 48)),
+                      topology(2, {0, 0}, 1));
+    });
+    add_case(c, "t11_island_in_hole", [] {
+        Spec s = base("T11", "ring 40 < r <= 60 on all slices, island disc 20 on slices 3-8", 128,
+                      128, 12, 4.0);
+        s.label_names = {{1, "ring and island"}};
+        s.objects.push_back({1, "ring", annulus({64, 64}, 40, 60, 0, 44), true});
+        s.objects.push_back({1, "island", cylinder({64, 64}, 20, 12, 32), true});
+        s.expected = topology(2, {1, 0}, 2);
+        return s;
+    });
+    add_case(c, "t13_y_branch_1to2", y_branch_case);
+    add_case(c, "t14_merge_2to1", [] {
+        return single("T14", "T13 mirrored in z (z -> 60 - z)", 128, 128, 31, 2.0, "merge",
+                      y_branch(true), genus_zero(1));
+    });
+    add_case(c, "t15_trident_1to3", [] {
+        return single("T15", "trunk capsule radius 12 and three arms radius 10 tilted 40 deg", 160,
+                      160, 31, 2.0, "trident", trident(), genus_zero(1));
+    });
+    add_case(c, "t16_n_to_m_tree", n_to_m_tree);
+    add_case(c, "t18_torus_on_side", torus_case);
+    add_case(c, "t19_plate_two_holes", [] {
+        return single(
+            "T19", "plate x in [20, 236), y in [40, 88) minus two discs radius 14", 256, 128, 8,
+            4.0, "plate",
+            subtract(half_open_box({20, 40, 0}, {236, 88, 28}),
+                     unite({cylinder({88, 64}, 14, 0, 28), cylinder({168, 64}, 14, 0, 28)})),
+            topology(1, {2}, 1));
+    });
+}
+
+/// T21-T36: objects appearing and vanishing, degenerate slices, scale, noise; then the demos.
+void add_stack_cases(std::vector<CaseEntry>& c) {
+    add_case(c, "t21_appear_midstack", [] {
+        Spec s = base("T21", "cylinder radius 30 on all slices and a ball radius 8 on 8-11", 128,
+                      128, 20, 4.0);
+        s.label_names = {{1, "cylinder and ball"}};
+        s.objects.push_back({1, "cylinder", cylinder({40, 64}, 30, 0, 76), true});
+        s.objects.push_back({1, "ball", ball({100, 64, 38}, 8), true});
+        s.expected = genus_zero(2);
+        return s;
+    });
+    add_case(c, "t22_empty_slices_inside", [] { return empty_slices(false); });
+    add_case(c, "t22_empty_slices_inside_b", [] { return empty_slices(true); });
+    add_case(c, "t23_single_slice_object", [] {
+        Spec s = single("T23", "disc centre (32, 32) radius 20 on slice 5 only", 64, 64, 11, 4.0,
+                        "disc", cylinder({32, 32}, 20, 20, 20), genus_zero(1));
+        s.objects[0].gt_applies = false;
+        return s;
+    });
+    add_case(c, "t24_tiny_objects_and_needle", tiny_objects);
+    add_case(c, "t25_touching_discs_gm2", [] { return touching_discs(-2); });
+    add_case(c, "t25_touching_discs_g0", [] { return touching_discs(0); });
+    add_case(c, "t25_touching_discs_g1", [] { return touching_discs(1); });
+    add_case(c, "t25_touching_discs_g2", [] { return touching_discs(2); });
+    add_case(c, "t27_thin_features", thin_features);
+    add_case(c, "t29_shifted_nonoverlap_a", [] { return shifted(40, false); });
+    add_case(c, "t29_shifted_nonoverlap_b", [] { return shifted(20, true); });
+    add_case(c, "t31_aniso_branch_d10", [] {
+        return single("T31", "the T13 solid sampled with d = 10", 128, 128, 7, 10.0, "y_branch",
+                      y_branch(false), genus_zero(1));
+    });
+    add_case(c, "t32_huge_contour", huge_contour);
+    c.push_back({"t33_many_components", [](std::optional<std::uint64_t> seed) {
+                     return many_components(seed.value_or(1234));
+                 }});
+    add_case(c, "t34_border_touch", [] { return border_touch(false); });
+    add_case(c, "t34_border_touch_b", [] { return border_touch(true); });
+    c.push_back({"t35_speckle_noise", [](std::optional<std::uint64_t> seed) {
+                     return speckle_noise(seed.value_or(7));
+                 }});
+    c.push_back({"t36_organ_like",
+                 [](std::optional<std::uint64_t> seed) { return organ_like(seed.value_or(36)); }});
+    // Demos (CLI names).
+    add_case(c, "sphere", make_t01_sphere_spec);
+    add_case(c, "ellipsoid", ellipsoid_tilted);
+    add_case(c, "torus", torus_case);
+    add_case(c, "branching", y_branch_case);
+    add_case(c, "hollow_sphere", hollow_sphere);
+    add_case(c, "scene", scene);
+}
+
 const std::vector<CaseEntry>& cases() {
     static const std::vector<CaseEntry> kCases = [] {
         std::vector<CaseEntry> c;
-        auto add = [&c](std::string name, std::function<Spec()> f) {
-            c.push_back({std::move(name), [f](std::optional<std::uint64_t>) { return f(); }});
-        };
-        add("t01_sphere", make_t01_sphere_spec);
-        add("t02_ellipsoid_tilted", ellipsoid_tilted);
-        add("t03_box_sharp", [] {
-            return single("T03", "box x in [34, 94), y in [44, 84), z in [0, 40]", 128, 128, 11,
-                          4.0, "box", half_open_box({34, 44, 0}, {94, 84, 40}), genus_zero(1));
-        });
-        add("t04_cylinder_aniso10", [] {
-            return single("T04", "cylinder centre (64, 64) radius 30 along z", 128, 128, 8, 10.0,
-                          "cylinder", cylinder({64, 64}, 30, 0, 70), genus_zero(1));
-        });
-        add("t05_c_shape_twist", [] {
-            return single(
-                "T05", "annulus 30 < r <= 50 minus the wedge |theta - 6 deg k| < 35 deg", 160, 160,
-                20, 3.0, "c_shape",
-                make_solid(TwistedSector{{80, 80}, 30, 50, 35 * kDeg, 0.0, 6 * kDeg / 3.0, 0, 57}),
-                genus_zero(1));
-        });
-        add("t06_spiral", [] {
-            return single(
-                "T06",
-                "6 px band along r = 8 + 12 t / (2 pi), t in [0, 6 pi], rotated 2 deg "
-                "per slice",
-                256, 256, 10, 3.0, "spiral",
-                make_solid(SpiralBand{
-                    {128, 128}, 8, 12 / (2 * kPi), 6 * kPi, 3, 0.0, 2 * kDeg / 3.0, 0, 27}),
-                genus_zero(1));
-        });
-        add("t07_star_to_circle", [] {
-            return single("T07", "5-point star (55 / 22) morphing linearly into a circle of 35",
-                          160, 160, 13, 3.0, "star",
-                          make_solid(StarMorph{{80, 80}, 5, 55, 22, 35, 0, 36}), genus_zero(1));
-        });
-        add("t08_comb_retracting", [] {
-            return single("T08", "bar with six 4 px teeth shrinking by 6 px per slice", 192, 128,
-                          12, 3.0, "comb", comb(), genus_zero(1));
-        });
-        add("t09_annulus_tube", [] {
-            return single("T09", "annulus 25 < r <= 50 on all slices", 128, 128, 16, 4.0, "tube",
-                          annulus({64, 64}, 25, 50, 0, 60), topology(1, {1}, 1));
-        });
-        add("t10_internal_cavity", [] {
-            return single("T10", "disc radius 50 with a hole of radius 15 on slices 7-12", 128, 128,
-                          20, 4.0, "disc with cavity",
-                          subtract(cylinder({64, 64}, 50, 0, 76), cylinder({64, 64}, 15, 28, 48)),
-                          topology(2, {0, 0}, 1));
-        });
-        add("t11_island_in_hole", [] {
-            Spec s = base("T11", "ring 40 < r <= 60 on all slices, island disc 20 on slices 3-8",
-                          128, 128, 12, 4.0);
-            s.label_names = {{1, "ring and island"}};
-            s.objects.push_back({1, "ring", annulus({64, 64}, 40, 60, 0, 44), true});
-            s.objects.push_back({1, "island", cylinder({64, 64}, 20, 12, 32), true});
-            s.expected = topology(2, {1, 0}, 2);
-            return s;
-        });
-        add("t13_y_branch_1to2", y_branch_case);
-        add("t14_merge_2to1", [] {
-            return single("T14", "T13 mirrored in z (z -> 60 - z)", 128, 128, 31, 2.0, "merge",
-                          y_branch(true), genus_zero(1));
-        });
-        add("t15_trident_1to3", [] {
-            return single("T15", "trunk capsule radius 12 and three arms radius 10 tilted 40 deg",
-                          160, 160, 31, 2.0, "trident", trident(), genus_zero(1));
-        });
-        add("t16_n_to_m_tree", n_to_m_tree);
-        add("t18_torus_on_side", torus_case);
-        add("t19_plate_two_holes", [] {
-            return single(
-                "T19", "plate x in [20, 236), y in [40, 88) minus two discs radius 14", 256, 128, 8,
-                4.0, "plate",
-                subtract(half_open_box({20, 40, 0}, {236, 88, 28}),
-                         unite({cylinder({88, 64}, 14, 0, 28), cylinder({168, 64}, 14, 0, 28)})),
-                topology(1, {2}, 1));
-        });
-        add("t21_appear_midstack", [] {
-            Spec s = base("T21", "cylinder radius 30 on all slices and a ball radius 8 on 8-11",
-                          128, 128, 20, 4.0);
-            s.label_names = {{1, "cylinder and ball"}};
-            s.objects.push_back({1, "cylinder", cylinder({40, 64}, 30, 0, 76), true});
-            s.objects.push_back({1, "ball", ball({100, 64, 38}, 8), true});
-            s.expected = genus_zero(2);
-            return s;
-        });
-        add("t22_empty_slices_inside", [] { return empty_slices(false); });
-        add("t22_empty_slices_inside_b", [] { return empty_slices(true); });
-        add("t23_single_slice_object", [] {
-            Spec s = single("T23", "disc centre (32, 32) radius 20 on slice 5 only", 64, 64, 11,
-                            4.0, "disc", cylinder({32, 32}, 20, 20, 20), genus_zero(1));
-            s.objects[0].gt_applies = false;
-            return s;
-        });
-        add("t24_tiny_objects_and_needle", tiny_objects);
-        add("t25_touching_discs_gm2", [] { return touching_discs(-2); });
-        add("t25_touching_discs_g0", [] { return touching_discs(0); });
-        add("t25_touching_discs_g1", [] { return touching_discs(1); });
-        add("t25_touching_discs_g2", [] { return touching_discs(2); });
-        add("t27_thin_features", thin_features);
-        add("t29_shifted_nonoverlap_a", [] { return shifted(40, false); });
-        add("t29_shifted_nonoverlap_b", [] { return shifted(20, true); });
-        add("t31_aniso_branch_d10", [] {
-            return single("T31", "the T13 solid sampled with d = 10", 128, 128, 7, 10.0, "y_branch",
-                          y_branch(false), genus_zero(1));
-        });
-        add("t32_huge_contour", huge_contour);
-        c.push_back({"t33_many_components", [](std::optional<std::uint64_t> seed) {
-                         return many_components(seed.value_or(1234));
-                     }});
-        add("t34_border_touch", [] { return border_touch(false); });
-        add("t34_border_touch_b", [] { return border_touch(true); });
-        c.push_back({"t35_speckle_noise", [](std::optional<std::uint64_t> seed) {
-                         return speckle_noise(seed.value_or(7));
-                     }});
-        c.push_back({"t36_organ_like", [](std::optional<std::uint64_t> seed) {
-                         return organ_like(seed.value_or(36));
-                     }});
-        // Demos (CLI names).
-        add("sphere", make_t01_sphere_spec);
-        add("ellipsoid", ellipsoid_tilted);
-        add("torus", torus_case);
-        add("branching", y_branch_case);
-        add("hollow_sphere", hollow_sphere);
-        add("scene", scene);
+        add_shape_cases(c);
+        add_stack_cases(c);
         return c;
     }();
     return kCases;
