@@ -17,6 +17,11 @@
 // doubles back past an end (the contour of a one-pixel-wide line does). Topology is repaired
 // afterwards: simplified edges of one label are bucketed in a uniform grid, candidate pairs
 // tested exactly, and each offending edge refined at its farthest original point.
+//
+// One file: the simplification and its topology repair decide with the same exact predicates
+// (half-pixel grid, orientation, segment contact) on the same kept-edge records, and the repair
+// calls back into the simplification to refine an edge; apart, each would export the other's
+// internals.
 #include "contours/simplify_contours.h"
 
 #include <algorithm>

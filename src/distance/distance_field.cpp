@@ -21,6 +21,10 @@
 // infinitesimal added to the heights, under which no two parabolas are equal at an integer x and
 // Maurer's removal test stays exact. The result is written once, and each square is rooted in
 // float where that is exact (distances up to 2048 px).
+//
+// One file: the window's phases (sites, mask, sites by row, the row sweep with its lower
+// envelope) share one thread's scratch buffers and the branch-free helpers their loops
+// vectorize with; the field's queries below read the same layout.
 #include "distance/distance_field.h"
 
 #include <algorithm>

@@ -8,6 +8,12 @@
 //   with the AND of neighbours): foreground components (26-connected, which in R equals 8 in
 //   plane + faces in z), background components (6-connected), and the Euler characteristic of
 //   the closed foreground cubes counted per grid vertex.
+//
+// One file: the catalogue is a table of cases (docs/test-catalogue.md), each written in the
+// solid shorthands above it, with the seeded draws of T33, T35 and T36 and the reference-volume
+// topology T36 accepts its draws with; a case reads top to bottom in one place. The sections:
+// shorthands, a case before rasterisation, rasterisation, reference-volume topology, draws, the
+// cases, numpy's default_rng.
 #include "phantom/catalogue.h"
 
 #include <algorithm>

@@ -7,6 +7,12 @@
 //   of implicit surfaces" (The Visual Computer, 1996): min/max of distance bounds is a bound.
 // - Twisted and polar primitives: bounds from the triangle inequality in polar coordinates
 //   (derivations next to each function); their sign is exact.
+//
+// One file: every primitive is a pair of overloads (contains_prim, distance_prim) that the tree
+// evaluation dispatches with one std::visit over Solid, next to the bounds and validation that
+// walk the same tree; split by family, each family's overloads would need a header that only
+// this file reads. The sections: helpers, ellipsoid distance, polar bound, primitives, tree
+// evaluation, bounds, validation, rasterisation.
 #include "phantom/solids.h"
 
 #include <algorithm>
