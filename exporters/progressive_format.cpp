@@ -70,15 +70,48 @@ std::string encode_dag_table(const DagTable& table) {
     return out;
 }
 
-DagTable parse_dag_table(std::string_view bytes,
-                         std::size_t group_count,
-                         const std::string& where) {
+std::size_t dag_table_length(std::string_view bytes, const std::string& where) {
     if (bytes.size() < kDagHeaderBytes) {
         fail(where, 0,
-             "the table has " + std::to_string(bytes.size()) + " bytes, expected a 16-byte header");
+             std::to_string(bytes.size()) + " bytes left in the view, expected a 16-byte header");
     }
     if (bytes.substr(0, 4) != std::string_view(kDagMagic.data(), 4)) {
         fail(where, 0, "no \"SDAG\" magic");
+    }
+    const std::uint32_t groups = get(bytes, 8, 4);
+    const std::uint32_t id_bytes = get(bytes, 12, 4);
+    if (id_bytes != 2 && id_bytes != 4) {
+        fail(where, 12, "idBytes " + std::to_string(id_bytes) + ", expected 2 or 4");
+    }
+    const std::uint64_t records = kDagHeaderBytes + std::uint64_t{kGroupRecordBytes} * groups;
+    if (records > bytes.size()) {
+        fail(where, 8,
+             std::to_string(groups) + " group records do not fit the view's " +
+                 std::to_string(bytes.size()) + " bytes left");
+    }
+    std::uint64_t ids = 0;
+    for (std::uint32_t g = 0; g < groups; ++g) {
+        const std::size_t at = kDagHeaderBytes + kGroupRecordBytes * g;
+        ids += get(bytes, at + 24, 2) + get(bytes, at + 26, 2);
+    }
+    const std::uint64_t length = (records + ids * id_bytes + 3) / 4 * 4;
+    if (length > bytes.size()) {
+        fail(where, 0,
+             "the table's counts need " + std::to_string(length) + " bytes, the view has " +
+                 std::to_string(bytes.size()) + " left");
+    }
+    return static_cast<std::size_t>(length);
+}
+
+DagTable parse_dag_table(std::string_view bytes,
+                         std::size_t group_count,
+                         const std::string& where) {
+    // magic, idBytes, the records within the bytes
+    const std::size_t length = dag_table_length(bytes, where);
+    if (length != bytes.size()) {
+        fail(where, 0,
+             "the table has " + std::to_string(bytes.size()) + " bytes, its counts need " +
+                 std::to_string(length));
     }
     DagTable table;
     table.clusters = get(bytes, 4, 4);
@@ -92,19 +125,10 @@ DagTable parse_dag_table(std::string_view bytes,
              "groupCount " + std::to_string(groups) +
                  ", expected errors.length = " + std::to_string(group_count));
     }
-    if (id_bytes != 2 && id_bytes != 4) {
-        fail(where, 12, "idBytes " + std::to_string(id_bytes) + ", expected 2 or 4");
-    }
     if (id_bytes == 2 && table.clusters > 65536) {
         fail(where, 12, "idBytes 2 cannot name " + std::to_string(table.clusters) + " clusters");
     }
     const std::uint64_t records = kDagHeaderBytes + std::uint64_t{kGroupRecordBytes} * groups;
-    if (records > bytes.size()) {
-        fail(where, 8,
-             std::to_string(groups) + " group records do not fit the table's " +
-                 std::to_string(bytes.size()) + " bytes");
-    }
-    std::uint64_t ids = 0;
     table.groups.resize(groups);
     for (std::uint32_t g = 0; g < groups; ++g) {
         const std::size_t at = kDagHeaderBytes + kGroupRecordBytes * g;
@@ -142,13 +166,6 @@ DagTable parse_dag_table(std::string_view bytes,
         }
         out.consumed.resize(consumed);
         out.produced.resize(produced);
-        ids += consumed + produced;
-    }
-    const std::uint64_t length = (records + ids * id_bytes + 3) / 4 * 4;
-    if (length != bytes.size()) {
-        fail(where, 0,
-             "the table has " + std::to_string(bytes.size()) + " bytes, its counts need " +
-                 std::to_string(length));
     }
     std::size_t at = static_cast<std::size_t>(records);
     for (std::uint32_t g = 0; g < groups; ++g) {

@@ -18,6 +18,11 @@ inline constexpr std::string_view kExtension = "STRATA_progressive_mesh";
 inline constexpr std::string_view kDraco = "KHR_draco_mesh_compression";
 inline constexpr int kVersion = 2;
 
+// Scene structure: the root node (patient LPS mm -> glTF metres) and its one child, the storage
+// frame (-> patient LPS mm) shared by every object node below it.
+inline constexpr std::string_view kPatientNodeName = "patient";
+inline constexpr std::string_view kStorageNodeName = "storage";
+
 // Attribute names: glTF (base mesh) and the spec's names of the chunks' Draco attributes.
 inline constexpr std::string_view kPosition = "POSITION";
 inline constexpr std::string_view kNormal = "NORMAL";
@@ -69,6 +74,13 @@ struct DagTable {
 /// The table's bytes (ids of 2 bytes when clusters <= 65535, else 4), padded to a multiple of 4.
 /// \throw Error{InvalidInput} when a group lists more than 65535 clusters or an id >= clusters.
 std::string encode_dag_table(const DagTable& table);
+
+/// The length of the table at the start of `bytes` (header and group records read: magic, counts,
+/// idBytes), padded to 4; the file's `dag` buffer view holds every object's table, each at the
+/// byte offset its node names.
+/// \throw Error{InvalidInput} "<where>: byte <offset>: <what>" when the header or the records do
+///        not fit `bytes`, or the length would leave it.
+std::size_t dag_table_length(std::string_view bytes, const std::string& where);
 
 /// Parses and checks the table's layout (schema/README.md "The DAG table" and validation point
 /// 2: magic, idBytes, exact length, counts, levels, reserved, finite spheres, ids in range).

@@ -44,6 +44,7 @@ constexpr std::size_t kMaxShortVertices = 65535;  // index 65535 is the primitiv
 constexpr int kErrorDigits = 3;     ///< errors rounded up to 3 significant digits (JSON bytes)
 constexpr int kColorDecimals = 5;   ///< linear colour channels (from 8-bit sRGB: 1/255)
 constexpr int kVolumeDecimals = 3;  ///< mL
+constexpr int kStorageNode = 1;     ///< node index of the storage frame, the objects' parent
 
 /// The double a JSON reader parses from `x` printed with `decimals` decimals (nlohmann prints it
 /// back as that short decimal).
@@ -503,9 +504,17 @@ format::DagTable dag_table(const MultiresMesh& model,
     return table;
 }
 
-/// One object: its chunks, base and table into `buffer`, its node, mesh, material into `json`.
+/// The file's shared buffer views: every object's DAG table, every object's chunks.
+struct SharedViews {
+    std::string tables;
+    std::string chunks;
+};
+
+/// One object: its base into `buffer`, its table and chunks into `shared`, its node, mesh,
+/// material into `json`.
 void write_object(Json& json,
                   BufferParts& buffer,
+                  SharedViews& shared,
                   ProgressiveStats& stats,
                   const ProgressiveObject& object,
                   const StorageFrame& storage,
@@ -529,10 +538,15 @@ void write_object(Json& json,
     const EncodedMesh base =
         base_mesh(grid, storage.matrix, model.roots(), options, "'" + name + "' base mesh");
 
-    // chunks, parents first (coarse first), each 4-byte aligned in the object's chunks view
-    std::string chunk_bytes;
+    // chunks, parents first (coarse first), each 4-byte aligned in the file's chunks view
+    std::string& chunk_bytes = shared.chunks;
     std::vector<std::uint32_t> chunk_offsets(model.groups.size());
     for (std::size_t g = model.groups.size(); g-- > 0;) {
+        if (chunk_bytes.size() + chunks[g].bytes.size() >
+            std::numeric_limits<std::uint32_t>::max()) {
+            throw Error(ErrorCode::Unsupported,
+                        "the chunks exceed 4 GiB (the DAG table's uint32 offsets)");
+        }
         chunk_offsets[g] = static_cast<std::uint32_t>(chunk_bytes.size());
         chunk_bytes += chunks[g].bytes;
         chunk_bytes.resize((chunk_bytes.size() + 3) / 4 * 4, '\0');
@@ -543,10 +557,9 @@ void write_object(Json& json,
         format::encode_dag_table(dag_table(model, storage, chunk_offsets, chunks));
     stats.dag_bytes += table.size();
     stats.groups += model.groups.size();
-    const int dag_view = buffer.add(false, table);
+    const std::size_t dag_offset = shared.tables.size();
+    shared.tables += table;  // a multiple of 4 bytes
     const int base_view = buffer.add(false, base.bytes);
-    // note: no chunks buffer view for an object without groups (glTF: byteLength >= 1)
-    const int chunks_view = chunk_bytes.empty() ? -1 : buffer.add(true, chunk_bytes);
 
     // unnamed, as the mesh: the node carries the object's name (JSON bytes)
     json["materials"].push_back(
@@ -567,11 +580,8 @@ void write_object(Json& json,
     Json node;
     node["name"] = name;
     node["mesh"] = json["meshes"].size() - 1;
-    node["matrix"] = json_numbers(storage.matrix);
-    Json ext = {{"version", format::kVersion}, {"dag", dag_view}};
-    if (chunks_view >= 0) {
-        ext["chunks"] = chunks_view;
-    }
+    // no matrix: the storage node above every object carries it (JSON bytes)
+    Json ext = {{"dag", dag_offset}};
     ext["errors"] = std::move(errors);
     ext["fullResolutionError"] = format::round_up_decimal(
         model.full_resolution_error_px * storage.error_m_per_px, kErrorDigits);
@@ -580,7 +590,7 @@ void write_object(Json& json,
     node["extras"] = {{"label", object.label},
                       {"volume_ml", short_decimal(object.volume_ml, kVolumeDecimals)}};
     json["nodes"].push_back(std::move(node));
-    json["nodes"][0]["children"].push_back(json["nodes"].size() - 1);
+    json["nodes"][kStorageNode]["children"].push_back(json["nodes"].size() - 1);
     ++stats.objects;
 }
 
@@ -663,6 +673,7 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     json["asset"] = {{"generator", info.generator}, {"version", "2.0"}};
     json["extensionsUsed"] = {key(format::kDraco), key(format::kExtension)};
     json["extensionsRequired"] = {key(format::kDraco)};
+    json["extensions"][key(format::kExtension)] = {{"version", format::kVersion}};
     json["scene"] = 0;
     json["scenes"] = Json::array();
     json["scenes"].push_back(Json{{"nodes", Json::array({0})}});
@@ -672,23 +683,34 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     json["accessors"] = Json::array();
     // what all objects share is said once, on the root node (JSON bytes)
     json["nodes"].push_back(
-        {{"name", "patient"},
+        {{"name", std::string(format::kPatientNodeName)},
          {"matrix", json_numbers(detail::kPatientToGltf)},
-         {"children", Json::array()},
+         {"children", Json::array({kStorageNode})},
          {"extras",
           {{"source", info.source}, {"spacing_mm", info.spacing_mm}, {"error_unit", "m"}}}});
+    // every object shares one storage frame: its matrix is said once, on the node above them
+    json["nodes"].push_back({{"name", std::string(format::kStorageNodeName)},
+                             {"matrix", json_numbers(storage.matrix)},
+                             {"children", Json::array()}});
     BufferParts buffer;
+    SharedViews shared;
     ProgressiveStats stats;
     for (const ProgressiveObject& object : objects) {
         if (!object.model->clusters.empty()) {
             try {
-                write_object(json, buffer, stats, object, storage, frame, options);
+                write_object(json, buffer, shared, stats, object, storage, frame, options);
             } catch (const Error& e) {
                 fail(e.code(), path, e.what());
             }
         }
     }
-    if (json["nodes"][0]["children"].empty()) {
+    Json& ext = json["extensions"][key(format::kExtension)];
+    ext["dag"] = buffer.add(false, shared.tables);
+    // note: no chunks buffer view when no object has a group (glTF: byteLength >= 1)
+    if (!shared.chunks.empty()) {
+        ext["chunks"] = buffer.add(true, shared.chunks);
+    }
+    if (json["nodes"][kStorageNode]["children"].empty()) {
         fail(ErrorCode::InvalidInput, path,
              std::to_string(objects.size()) +
                  " objects, none with a triangle: nothing to write, expected at least one "

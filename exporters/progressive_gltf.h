@@ -49,17 +49,19 @@ struct ProgressiveStats {
 /// Writes `objects` as progressive glTF 2.0, STRATA_progressive_mesh version 2
 /// (schema/README.md; names and constants in exporters/progressive_format.h): `.glb`, or `.gltf`
 /// with one `<stem>.bin`, by the extension of `path`; compact JSON. A root node "patient" maps
-/// LPS mm to glTF metres; under it one node per object whose matrix maps the storage frame (x, y
-/// px, z in slices; x negated when the frame mirrors, so the matrix is a rotation times positive
-/// scales) to LPS mm. The node's mesh is the base: one Draco primitive holding every root cluster
-/// (POSITION, NORMAL, `_CLUSTER`). Each group's consumed clusters are one Draco chunk (welded,
-/// `_CLUSTER` per point, `_SLOT` geomorph ranks), in the object's `chunks` buffer view; the DAG
-/// (group spheres, chunk ranges, cluster lists) is a binary table in its `dag` view; the JSON
-/// extension holds one error per group. Positions are quantized on the model's own grid, so they
-/// are lossless and shared vertices bit-identical. Every encoded chunk and base is decoded again
-/// and compared with its clusters (triangles, orientation, coarse vertices from the slots)
-/// before anything is written. The buffer starts with every object's table and base (a first
-/// frame's bytes), then the chunks, coarse first.
+/// LPS mm to glTF metres; its one child "storage" maps the storage frame shared by every object
+/// (x, y px, z in slices; x negated when the frame mirrors, so the matrix is a rotation times
+/// positive scales) to LPS mm; under it one node per object, without a matrix. The node's mesh is
+/// the base: one Draco primitive holding every root cluster (POSITION, NORMAL, `_CLUSTER` when
+/// there are several). Each group's consumed clusters are one Draco chunk (welded, `_CLUSTER` per
+/// point, `_SLOT` geomorph ranks), in the file's one `chunks` buffer view; every object's DAG
+/// (group spheres, chunk ranges, cluster lists) is a binary table in the file's one `dag` view
+/// (the top-level extension object names both views and the version; a node names its table's
+/// byte offset); the node's extension holds one error per group. Positions are quantized on the
+/// model's own grid, so they are lossless and shared vertices bit-identical. Every encoded chunk
+/// and base is decoded again and compared with its clusters (triangles, orientation, coarse
+/// vertices from the slots) before anything is written. The buffer starts with every object's
+/// base and the tables (a first frame's bytes), then the chunks, coarse first.
 ///
 /// Atomic per file (temporary file, then rename); for `.gltf` the buffer goes first, the JSON
 /// last. \throw Error{InvalidInput} for models that are not on a grid, empty scenes, bad colours,

@@ -382,14 +382,53 @@ struct ParsedObject {
     double full_resolution_error = 0.0;
     double grid_step = 0.0;
     format::DagTable table;
-    std::string_view chunks;
+    std::size_t dag_offset = 0;  ///< the table's bytes in the file's `dag` view
+    std::string_view chunks;     ///< the file's `chunks` view (empty when absent)
     ParsedBase base;
 };
 
+/// The top-level extension object: the version and the file's two buffer views.
+struct FileViews {
+    std::string_view dag;
+    std::string_view chunks;
+    bool has_chunks = false;
+};
+
+FileViews parse_file_extension(const JsonReader& r, const Data& data) {
+    const Json* extensions = JsonReader::find(r.json(), "extensions");
+    const Json* ext =
+        extensions == nullptr ? nullptr : JsonReader::find(*extensions, key(format::kExtension));
+    const std::string where = "/extensions/" + key(format::kExtension);
+    if (ext == nullptr) {
+        throw Error(ErrorCode::Unsupported,
+                    r.name() + ": " + where +
+                        ": absent; not a progressive file of this strata (an earlier one: "
+                        "rebuild it with this strata)");
+    }
+    r.object(*ext, where);
+    const Json* version = JsonReader::find(*ext, "version");
+    if (version == nullptr || !version->is_number_integer() ||
+        version->get<std::int64_t>() != format::kVersion) {
+        throw Error(ErrorCode::Unsupported,
+                    r.name() + ": " + where +
+                        "/version: not 2 (a version 1 file or newer): rebuild it with this strata");
+    }
+    FileViews views;
+    views.dag = data.view(r.index(*ext, "dag", where, data.views.size(), "buffer view"));
+    // note: absent when no object has a group (a glTF buffer view cannot be empty)
+    if (JsonReader::find(*ext, "chunks") != nullptr) {
+        views.chunks = data.view(r.index(*ext, "chunks", where, data.views.size(), "buffer view"));
+        views.has_chunks = true;
+    }
+    return views;
+}
+
 ParsedObject parse_object(const JsonReader& r,
                           const Data& data,
+                          const FileViews& views,
                           std::size_t n,
-                          const std::array<double, 16>& patient) {
+                          const std::array<double, 16>& patient,
+                          const std::array<double, 16>& to_patient) {
     const Json& nodes = r.array(r.json(), "nodes", "");
     const std::string where = "/nodes/" + std::to_string(n);
     const Json& node = r.object(nodes[n], where);
@@ -397,13 +436,6 @@ ParsedObject parse_object(const JsonReader& r,
     p.where = where + "/extensions/" + key(format::kExtension);
     const Json& ext = r.object(r.object(node, "extensions", where), key(format::kExtension),
                                where + "/extensions");
-    const Json* version = JsonReader::find(ext, "version");
-    if (version == nullptr || !version->is_number_integer() ||
-        version->get<std::int64_t>() != format::kVersion) {
-        throw Error(ErrorCode::Unsupported,
-                    r.name() + ": " + p.where +
-                        "/version: not 2 (a version 1 file or newer): rebuild it with this strata");
-    }
     p.out.name = r.string(node, "name", where);
     const Json* extras = JsonReader::find(node, "extras");
     if (extras != nullptr && extras->is_object()) {
@@ -413,7 +445,7 @@ ParsedObject parse_object(const JsonReader& r,
                 r.index(*label, where + "/extras/label", std::uint64_t{1} << 32, "label"));
         }
     }
-    p.out.to_patient = r.numbers<16>(node, "matrix", where, kIdentity);
+    p.out.to_patient = multiply(to_patient, r.numbers<16>(node, "matrix", where, kIdentity));
     p.out.to_scene = multiply(patient, p.out.to_patient);
     p.full_resolution_error = r.number(ext, "fullResolutionError", p.where, 0.0);
     p.grid_step = r.number(ext, "gridStep", p.where, 0.0);
@@ -424,15 +456,20 @@ ParsedObject parse_object(const JsonReader& r,
     for (std::size_t g = 0; g < errors.size(); ++g) {
         p.errors.push_back(r.number(errors[g], p.where + "/errors/" + std::to_string(g), 0.0));
     }
-    const std::size_t dag = r.index(ext, "dag", p.where, data.views.size(), "buffer view");
-    p.table = format::parse_dag_table(
-        data.view(dag), errors.size(),
-        r.name() + ": " + p.where + "/dag (buffer view " + std::to_string(dag) + ")");
-    p.out.dag_bytes = data.views[dag].length;
-    // note: absent when the object has no groups (a glTF buffer view cannot be empty)
-    if (ext.contains("chunks") || !errors.empty()) {
-        p.chunks = data.view(r.index(ext, "chunks", p.where, data.views.size(), "buffer view"));
+    p.dag_offset = r.index(ext, "dag", p.where, views.dag.size(), "byte offset in the dag view");
+    if (p.dag_offset % 4 != 0) {
+        r.fail(p.where + "/dag", std::to_string(p.dag_offset) + ", expected a multiple of 4");
     }
+    const std::string table_where = r.name() + ": " + p.where + "/dag (byte " +
+                                    std::to_string(p.dag_offset) + " of the dag buffer view)";
+    const std::string_view rest = views.dag.substr(p.dag_offset);
+    p.out.dag_bytes = format::dag_table_length(rest, table_where);
+    p.table = format::parse_dag_table(rest.substr(0, p.out.dag_bytes), errors.size(), table_where);
+    if (!errors.empty() && !views.has_chunks) {
+        r.fail("/extensions/" + key(format::kExtension),
+               "no chunks buffer view, expected one (" + p.where + " has groups)");
+    }
+    p.chunks = views.chunks;
     const Json& meshes = r.array(r.json(), "meshes", "");
     p.base = parse_base(r, data, r.index(node, "mesh", where, meshes.size(), "mesh"));
     p.out.base_bytes = p.base.bytes.size();
@@ -448,6 +485,47 @@ struct Graph {
     std::vector<std::uint32_t> level;
     std::vector<std::uint32_t> roots;  ///< increasing
 };
+
+/// No two objects' DAG tables overlap in the `dag` view, and no two groups of the file (of one
+/// object or two) share chunk bytes: each table is parsed once and each chunk decoded once (a
+/// file whose 20,000 clusters shared one chunk used to decode it 20,000 times).
+void check_disjoint(const JsonReader& r, const std::vector<ParsedObject>& parsed) {
+    struct Range {
+        std::uint64_t begin, end;
+        std::size_t object, group;
+    };
+    std::vector<Range> tables, chunks;
+    for (std::size_t o = 0; o < parsed.size(); ++o) {
+        const ParsedObject& p = parsed[o];
+        tables.push_back({p.dag_offset, p.dag_offset + p.out.dag_bytes, o, 0});
+        for (std::size_t g = 0; g < p.table.groups.size(); ++g) {
+            const format::DagGroup& group = p.table.groups[g];
+            chunks.push_back(
+                {group.chunk_offset, std::uint64_t{group.chunk_offset} + group.chunk_length, o, g});
+        }
+    }
+    const auto first_overlap = [](std::vector<Range>& ranges) -> const Range* {
+        std::sort(ranges.begin(), ranges.end(),
+                  [](const Range& a, const Range& b) { return a.begin < b.begin; });
+        for (std::size_t i = 1; i < ranges.size(); ++i) {
+            if (ranges[i].begin < ranges[i - 1].end) {
+                return &ranges[i];
+            }
+        }
+        return nullptr;
+    };
+    if (const Range* t = first_overlap(tables)) {
+        r.fail(parsed[t->object].where + "/dag",
+               "its DAG table at byte " + std::to_string(t->begin) +
+                   " overlaps another object's (each object has a table of its own)");
+    }
+    if (const Range* c = first_overlap(chunks)) {
+        r.fail(parsed[c->object].where + "/dag",
+               "two groups' chunks overlap at byte " + std::to_string(c->begin) +
+                   " of the chunks buffer view (group " + std::to_string(c->group) +
+                   "; each group has a chunk of its own)");
+    }
+}
 
 Graph check_graph(const JsonReader& r, const ParsedObject& p) {
     const auto fail = [&](const std::string& what) { r.fail(p.where + "/dag", what); };
@@ -498,8 +576,7 @@ Graph check_graph(const JsonReader& r, const ParsedObject& p) {
             graph.level[c] = group.level;
         }
     }
-    // chunk ranges: inside the view, none shared or overlapping
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> ranges;
+    // chunk ranges: inside the view (overlaps anywhere in the file: check_disjoint)
     for (std::size_t g = 0; g < t.groups.size(); ++g) {
         const std::uint64_t begin = t.groups[g].chunk_offset;
         const std::uint64_t end = begin + t.groups[g].chunk_length;
@@ -507,14 +584,6 @@ Graph check_graph(const JsonReader& r, const ParsedObject& p) {
             fail("group " + std::to_string(g) + "'s chunk [" + std::to_string(begin) + ", " +
                  std::to_string(end) + ") leaves the chunks buffer view of " +
                  std::to_string(p.chunks.size()) + " bytes");
-        }
-        ranges.push_back({begin, end});
-    }
-    std::sort(ranges.begin(), ranges.end());
-    for (std::size_t i = 1; i < ranges.size(); ++i) {
-        if (ranges[i].first < ranges[i - 1].second) {
-            fail("two groups' chunks overlap at byte " + std::to_string(ranges[i].first) +
-                 " of the chunks buffer view (each group has a chunk of its own)");
         }
     }
     for (std::uint32_t c = 0; c < t.clusters; ++c) {
@@ -800,20 +869,40 @@ ProgressiveFile read_document(std::string_view bytes,
     }
     const std::string sw = "/scenes/" + std::to_string(scene);
     const Json& roots = r.array(r.object(scenes[scene], sw), "nodes", sw);
+    const FileViews views = parse_file_extension(r, data);
+    // objects: nodes with the extension below a root, the matrices between them multiplied
+    // (strata writes root "patient" -> "storage" -> objects); each node visited once
+    std::vector<char> visited(nodes.size(), 0);
     for (std::size_t i = 0; i < roots.size(); ++i) {
         const std::size_t root =
             r.index(roots[i], sw + "/nodes/" + std::to_string(i), nodes.size(), "node");
         const std::string rw = "/nodes/" + std::to_string(root);
-        const Json& root_node = r.object(nodes[root], rw);
-        const std::array<double, 16> patient = r.numbers<16>(root_node, "matrix", rw, kIdentity);
-        const Json& children = r.array(root_node, "children", rw, false);
-        for (std::size_t k = 0; k < children.size(); ++k) {
-            const std::size_t n =
-                r.index(children[k], rw + "/children/" + std::to_string(k), nodes.size(), "node");
-            const Json* extensions = JsonReader::find(nodes[n], "extensions");
-            if (extensions != nullptr &&
+        const std::array<double, 16> patient =
+            r.numbers<16>(r.object(nodes[root], rw), "matrix", rw, kIdentity);
+        std::vector<std::pair<std::size_t, std::array<double, 16>>> stack{{root, kIdentity}};
+        while (!stack.empty()) {
+            const auto [n, above] = stack.back();
+            stack.pop_back();
+            const std::string nw = "/nodes/" + std::to_string(n);
+            if (visited[n] != 0) {
+                r.fail(nw, "reached twice, expected a tree of nodes (one parent each)");
+            }
+            visited[n] = 1;
+            const Json& node = r.object(nodes[n], nw);
+            const Json* extensions = JsonReader::find(node, "extensions");
+            if (n != root && extensions != nullptr &&
                 JsonReader::find(*extensions, key(format::kExtension)) != nullptr) {
-                parsed.push_back(parse_object(r, data, n, patient));
+                parsed.push_back(parse_object(r, data, views, n, patient, above));
+                continue;
+            }
+            const std::array<double, 16> here =
+                n == root ? kIdentity
+                          : multiply(above, r.numbers<16>(node, "matrix", nw, kIdentity));
+            const Json& children = r.array(node, "children", nw, false);
+            for (std::size_t k = children.size(); k-- > 0;) {
+                stack.push_back({r.index(children[k], nw + "/children/" + std::to_string(k),
+                                         nodes.size(), "node"),
+                                 here});
             }
         }
     }
@@ -821,6 +910,7 @@ ProgressiveFile read_document(std::string_view bytes,
         throw Error(ErrorCode::Unsupported,
                     name + ": no node uses STRATA_progressive_mesh; not a progressive strata file");
     }
+    check_disjoint(r, parsed);
     std::vector<Graph> graphs;
     for (const ParsedObject& p : parsed) {
         graphs.push_back(check_graph(r, p));

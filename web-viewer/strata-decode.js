@@ -3,40 +3,53 @@
 // the normals of a drawn cut. Used by the plugin (strata-progressive.js), the viewer's tests and
 // tests/node/check_progressive.mjs. Every function validates what it reads and throws an Error
 // that says what, where and what was expected.
-import { kChunkAttributeIds, kDagTable, kVersion } from './strata-format.js';
+import { kChunkAttributeIds, kDagTable, kExtension, kVersion } from './strata-format.js';
 
 const isIndex = (v) => Number.isInteger(v) && v >= 0;
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
 
-/// Byte length of an object's `chunks` buffer view (0 when it has none: no groups).
+/// Byte length of the file's `chunks` buffer view (0 when it has none: no object has groups).
 export function chunksByteLength(info, json) {
     return info.chunks === undefined ? 0 : json.bufferViews[info.chunks].byteLength;
 }
 
-/// Checks the JSON extension object of a node (validation point 1 and the buffer views' ranges).
-/// Returns { dag, chunks, errors, fullResolutionError, gridStep } (chunks undefined when the
-/// object has no groups).
+/// Checks the JSON extension object of a node and the file's (top-level `extensions`: version and
+/// the two buffer views every object shares; validation point 1 and the buffer views' ranges).
+/// Returns { dag, dagOffset, chunks, errors, fullResolutionError, gridStep }: dag and chunks are
+/// the file's buffer views (chunks undefined when no object has groups), dagOffset the byte
+/// offset of the node's table in the dag view.
 export function readExtension(ext, json, where = 'extension') {
-    if (typeof ext !== 'object' || ext === null || Array.isArray(ext)) throw new Error(`${where}: not an object`);
-    if (ext.version !== kVersion) {
+    const fileWhere = `/extensions/${kExtension}`;
+    const file = json.extensions?.[kExtension];
+    if (typeof file !== 'object' || file === null || Array.isArray(file)) {
         throw new Error(
-            `${where}/version: ${JSON.stringify(ext.version)}, expected ${kVersion} (a version 1 file: rebuild it with this strata)`,
+            `${fileWhere}: absent, expected an object (a file of an earlier strata: rebuild it with this strata)`,
         );
     }
-    // `chunks` is absent when the object has no groups (a glTF buffer view cannot be empty)
-    const keys =
-        ext.chunks === undefined && Array.isArray(ext.errors) && ext.errors.length === 0 ? ['dag'] : ['dag', 'chunks'];
-    for (const key of keys) {
-        const v = ext[key];
-        const view = isIndex(v) ? json.bufferViews?.[v] : undefined;
-        if (view === undefined) throw new Error(`${where}/${key}: ${JSON.stringify(v)} is not a buffer view index`);
-        const buffer = json.buffers?.[view.buffer];
-        if (buffer === undefined || !((view.byteOffset ?? 0) + view.byteLength <= buffer.byteLength)) {
-            throw new Error(`${where}/${key}: buffer view ${v} does not lie inside its buffer`);
-        }
+    if (file.version !== kVersion) {
+        throw new Error(
+            `${fileWhere}/version: ${JSON.stringify(file.version)}, expected ${kVersion} (a version 1 file: rebuild it with this strata)`,
+        );
     }
+    if (typeof ext !== 'object' || ext === null || Array.isArray(ext)) throw new Error(`${where}: not an object`);
     if (!Array.isArray(ext.errors) || !ext.errors.every((e) => isNumber(e) && e >= 0)) {
         throw new Error(`${where}/errors: expected an array of finite numbers >= 0`);
+    }
+    // `chunks` is absent when no object has groups (a glTF buffer view cannot be empty)
+    const keys = file.chunks === undefined && ext.errors.length === 0 ? ['dag'] : ['dag', 'chunks'];
+    for (const key of keys) {
+        const v = file[key];
+        const view = isIndex(v) ? json.bufferViews?.[v] : undefined;
+        if (view === undefined) throw new Error(`${fileWhere}/${key}: ${JSON.stringify(v)} is not a buffer view index`);
+        const buffer = json.buffers?.[view.buffer];
+        if (buffer === undefined || !((view.byteOffset ?? 0) + view.byteLength <= buffer.byteLength)) {
+            throw new Error(`${fileWhere}/${key}: buffer view ${v} does not lie inside its buffer`);
+        }
+    }
+    if (!isIndex(ext.dag) || ext.dag % 4 !== 0 || ext.dag >= json.bufferViews[file.dag].byteLength) {
+        throw new Error(
+            `${where}/dag: ${JSON.stringify(ext.dag)}, expected a byte offset in the dag buffer view, a multiple of 4`,
+        );
     }
     if (!isNumber(ext.fullResolutionError) || ext.fullResolutionError < 0) {
         throw new Error(`${where}/fullResolutionError: ${ext.fullResolutionError}, expected a number >= 0`);
@@ -45,8 +58,9 @@ export function readExtension(ext, json, where = 'extension') {
         throw new Error(`${where}/gridStep: ${ext.gridStep}, expected a number > 0`);
     }
     return {
-        dag: ext.dag,
-        chunks: ext.chunks,
+        dag: file.dag,
+        dagOffset: ext.dag,
+        chunks: file.chunks,
         errors: ext.errors,
         fullResolutionError: ext.fullResolutionError,
         gridStep: ext.gridStep,
@@ -54,14 +68,22 @@ export function readExtension(ext, json, where = 'extension') {
 }
 
 /// Parses and validates the DAG table (validation points 2-8) of one object. bytes: the `dag`
-/// buffer view (Uint8Array); info: readExtension's result; chunksLength: byteLength of the
-/// `chunks` buffer view. Returns the DAG in the shape selection.js's buildDag reads:
+/// buffer view (Uint8Array; the table starts at info.dagOffset and its counts give its length;
+/// without info.dagOffset, bytes are exactly one table); info: readExtension's result;
+/// chunksLength: byteLength of the `chunks` buffer view. Returns the DAG in the shape selection.js's buildDag reads:
 ///   { clusters: [{ level, producer?, consumer?, sphere }], groups: [{ level, error, sphere,
 ///     consumed, produced, chunkOffset, chunkLength }], fullResolutionError, gridStep }
 /// A cluster's sphere is its producer's, else its consumer's; a cluster in no list (a root that
 /// was never simplified) gets null (the caller takes it from the base mesh).
 export function parseDagTable(bytes, info, chunksLength, where = 'DAG table') {
     const T = kDagTable;
+    const shared = info.dagOffset !== undefined;
+    if (shared) {
+        if (!isIndex(info.dagOffset) || info.dagOffset > bytes.byteLength) {
+            throw new Error(`${where}: offset ${info.dagOffset} outside the dag view (${bytes.byteLength} bytes)`);
+        }
+        bytes = bytes.subarray(info.dagOffset);
+    }
     if (bytes.byteLength < T.headerBytes) throw new Error(`${where}: ${bytes.byteLength} bytes, expected >= 16`);
     const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
     const magic = String.fromCharCode(...bytes.subarray(0, 4));
@@ -104,7 +126,10 @@ export function parseDagTable(bytes, info, chunksLength, where = 'DAG table') {
     }
     const listStart = T.headerBytes + T.recordBytes * G;
     const expected = Math.ceil((listStart + idBytes * idCount) / 4) * 4;
-    if (bytes.byteLength !== expected) throw new Error(`${where}: ${bytes.byteLength} bytes, expected ${expected}`);
+    if (shared ? bytes.byteLength < expected : bytes.byteLength !== expected) {
+        throw new Error(`${where}: ${bytes.byteLength} bytes, expected ${shared ? 'at least ' : ''}${expected}`);
+    }
+    if (shared) bytes = bytes.subarray(0, expected);
     const clusters = Array.from({ length: C }, () => ({ level: 0, sphere: null }));
     let offset = listStart;
     const readId = () => {

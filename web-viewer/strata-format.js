@@ -9,6 +9,8 @@ export const kExtension = 'STRATA_progressive_mesh';
 export const kDraco = 'KHR_draco_mesh_compression';
 /// The scene's root node, LPS mm -> glTF (X = left, Y = superior, Z = anterior, metres).
 export const kPatientNode = 'patient';
+/// Its one child: the storage frame every object shares (-> patient mm); the objects below it.
+export const kStorageNode = 'storage';
 /// The JSON schema of the node extension (in schema/).
 export const kSchemaFile = 'node.STRATA_progressive_mesh.schema.json';
 

@@ -59,7 +59,14 @@ import {
     drawnClusters,
 } from './selection.js';
 import { ByteCoverage, coalesceRanges, glbLayout, meshBufferViews, progressiveNodes } from './gltf-file.js';
-import { kChunkAttributeIds, kDraco, kExtension, kThreeAttributes, kThreeClusterAttribute } from './strata-format.js';
+import {
+    kChunkAttributeIds,
+    kDraco,
+    kExtension,
+    kPatientNode,
+    kThreeAttributes,
+    kThreeClusterAttribute,
+} from './strata-format.js';
 import {
     chunksByteLength,
     parseDagTable,
@@ -277,7 +284,7 @@ export class StrataObjectController {
         this.name = json.nodes[nodeIndex].name ?? `node ${nodeIndex}`;
         this.extras = json.nodes[nodeIndex].extras ?? {};
         this.table = table;
-        this.chunksView = json.nodes[nodeIndex].extensions[kExtension].chunks;
+        this.chunksView = json.extensions[kExtension].chunks; // one view for every object
         this.material = base.material;
         const nc = table.clusters.length;
         // cluster -> { chunk, range: [a, b) of chunk.index } (null until loaded); a chunk (the base,
@@ -295,8 +302,14 @@ export class StrataObjectController {
         this.clustersAt = new Map();
         this.normalsCut = null;
         this.positionsMm = new Float64Array(3 * 4096);
-        object.updateMatrix();
-        this.toMm = object.matrix.clone().setPosition(0, 0, 0); // local -> patient mm (linear part)
+        // local -> patient mm (linear part): the matrices below the patient node (the shared
+        // storage node's, the object's own)
+        this.toMm = new Matrix4();
+        for (let o = object; o !== null && o.name !== kPatientNode; o = o.parent) {
+            o.updateMatrix();
+            this.toMm.premultiply(o.matrix);
+        }
+        this.toMm.setPosition(0, 0, 0);
         // the draw mesh (built by syncDraw): one geometry with the drawn clusters' points and
         // triangles; drawChunks: the chunks in it, { chunk, first point, weight written }
         this.drawMaterial = morphMaterial(this.material);
@@ -1024,9 +1037,9 @@ export class StrataProgressivePlugin {
         const views = new Set();
         for (const node of json.nodes ?? []) {
             if (node.mesh !== undefined) meshBufferViews(json, node.mesh).forEach((v) => views.add(v));
-            const dag = node.extensions?.[kExtension]?.dag;
-            if (Number.isInteger(dag) && json.bufferViews?.[dag] !== undefined) views.add(dag);
         }
+        const dag = json.extensions?.[kExtension]?.dag; // every object's table
+        if (Number.isInteger(dag) && json.bufferViews?.[dag] !== undefined) views.add(dag);
         const ranges = coalesceRanges(
             json,
             [...views].filter((v) => json.bufferViews[v].buffer === 0),

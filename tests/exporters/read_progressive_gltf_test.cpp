@@ -238,7 +238,8 @@ void expect_rejected(const std::string& bytes, const std::string& fragment) {
 /// The .glb with one change to its JSON or BIN.
 struct Mutator {
     Glb glb;
-    std::string ext = "/nodes/1/extensions/STRATA_progressive_mesh";
+    std::string ext = "/nodes/2/extensions/STRATA_progressive_mesh";  ///< the object's
+    std::string file_ext = "/extensions/STRATA_progressive_mesh";     ///< version, views
 
     std::string operator()(const std::function<void(Glb&)>& change) const {
         Glb g = glb;
@@ -246,13 +247,16 @@ struct Mutator {
         return pack(g);
     }
 
-    /// Offset in the BIN of a buffer view.
+    /// Offset in the BIN of one of the file's buffer views ("dag", "chunks").
     std::size_t view(const Glb& g, const std::string& name) const {
-        const int v = g.json[Json::json_pointer(ext + "/" + name)];
+        const int v = g.json[Json::json_pointer(file_ext + "/" + name)];
         return g.json["bufferViews"][v].value("byteOffset", std::size_t{0});
     }
 
-    std::size_t table(const Glb& g) const { return view(g, "dag"); }
+    /// Offset in the BIN of the object's DAG table.
+    std::size_t table(const Glb& g) const {
+        return view(g, "dag") + g.json[Json::json_pointer(ext + "/dag")].get<std::size_t>();
+    }
 };
 
 void put32(std::string& bytes, std::size_t at, std::uint32_t v) {
@@ -332,7 +336,7 @@ TEST(ReadProgressiveGltf, CorruptFilesAreRejectedWithWhatAndWhere) {
                     "not a Draco bitstream");
     // the base: accessors that disagree with the Draco data
     expect_rejected(mutated([&](Glb& g) {
-                        const int base = g.json["nodes"][1]["mesh"];
+                        const int base = g.json["nodes"][2]["mesh"];
                         for (const auto& [name, a] :
                              g.json["meshes"][base]["primitives"][0]["attributes"].items()) {
                             g.json["accessors"][a.get<int>()]["count"] = 3;
@@ -343,23 +347,44 @@ TEST(ReadProgressiveGltf, CorruptFilesAreRejectedWithWhatAndWhere) {
                     "out of range");
     // version 1 and files without the extension
     try {
-        read_progressive_gltf(mutated([&](Glb& g) { at(g.json, "/version") = 1; }), "v1.glb",
-                              nullptr);
+        read_progressive_gltf(
+            mutated([&](Glb& g) { g.json[Json::json_pointer(mutated.file_ext + "/version")] = 1; }),
+            "v1.glb", nullptr);
         ADD_FAILURE() << "a version 1 extension accepted";
     } catch (const Error& e) {
         EXPECT_EQ(e.code(), ErrorCode::Unsupported);
         EXPECT_NE(std::string(e.what()).find("version"), std::string::npos) << e.what();
     }
     expect_rejected(
-        mutated([&](Glb& g) { g.json["nodes"][1]["extensions"].erase("STRATA_progressive_mesh"); }),
+        mutated([&](Glb& g) { g.json["nodes"][2]["extensions"].erase("STRATA_progressive_mesh"); }),
         "not a progressive strata file");
+    try {
+        read_progressive_gltf(
+            mutated([&](Glb& g) { g.json["extensions"].erase("STRATA_progressive_mesh"); }),
+            "no_file_extension.glb", nullptr);
+        ADD_FAILURE() << "a file without the top-level extension accepted";
+    } catch (const Error& e) {
+        EXPECT_EQ(e.code(), ErrorCode::Unsupported);
+        EXPECT_NE(std::string(e.what()).find("rebuild it"), std::string::npos) << e.what();
+    }
+    // tables: a second object naming the first one's table (parsed and decoded twice); an
+    // offset off the 4-byte grid or beyond the view; the node tree: a node reached twice
+    expect_rejected(mutated([&](Glb& g) {
+                        g.json["nodes"].push_back(g.json["nodes"][2]);
+                        g.json["nodes"][1]["children"].push_back(g.json["nodes"].size() - 1);
+                    }),
+                    "overlaps another object's");
+    expect_rejected(mutated([&](Glb& g) { at(g.json, "/dag") = 2; }), "expected a multiple of 4");
+    expect_rejected(mutated([&](Glb& g) { at(g.json, "/dag") = 1u << 20; }), "/dag");
+    expect_rejected(mutated([&](Glb& g) { g.json["nodes"][1]["children"].push_back(1); }),
+                    "reached twice");
 }
 
 // Issue 18: JSON fields of the wrong type were read with nlohmann's get<>(), whose type_error
 // escaped as an internal error. Every field read says where (a JSON pointer) and what was expected.
 TEST(ReadProgressiveGltf, FieldsOfTheWrongTypeNameTheirPointer) {
     const Mutator mutated{unpack(test::read_file(torus().glb))};
-    const int base = mutated.glb.json["nodes"][1]["mesh"];
+    const int base = mutated.glb.json["nodes"][2]["mesh"];
     const std::string primitive = "/meshes/" + std::to_string(base) + "/primitives/0";
     const int position = mutated.glb.json[Json::json_pointer(primitive + "/attributes/POSITION")];
     const int material = mutated.glb.json[Json::json_pointer(primitive + "/material")];
@@ -368,7 +393,7 @@ TEST(ReadProgressiveGltf, FieldsOfTheWrongTypeNameTheirPointer) {
     const std::vector<std::pair<std::string, Json>> cases = {
         {"/asset/version", 2.0},
         {"/asset/generator", 7},
-        {"/nodes/1/name", 12},
+        {"/nodes/2/name", 12},
         {m, 3},
         {m + "/pbrMetallicRoughness", 1},
         {m + "/pbrMetallicRoughness/baseColorFactor", "red"},
@@ -376,7 +401,8 @@ TEST(ReadProgressiveGltf, FieldsOfTheWrongTypeNameTheirPointer) {
         {a + "/normalized", "no"},
         {a + "/count", "many"},
         {"/nodes/1/matrix", Json::object()},
-        {"/nodes/1/extras/label", "one"},
+        {"/nodes/2/matrix", Json::object()},
+        {"/nodes/2/extras/label", "one"},
         {mutated.ext + "/errors", 0.5},
         {mutated.ext + "/dag", "0"},
         {"/bufferViews/0/byteOffset", -4},
@@ -464,13 +490,18 @@ TEST(ReadProgressiveGltfSeeds, WritesFuzzSeeds) {
     };
     seed("asset_version_number", set("/asset/version", 2));
     seed("generator_number", set("/asset/generator", 1));
-    seed("node_name_number", set("/nodes/1/name", 1));
+    seed("node_name_number", set("/nodes/2/name", 1));
     seed("material_number", set("/materials/0", 1));
     seed("pbr_number", set("/materials/0/pbrMetallicRoughness", 1));
     seed("mode_string", set("/meshes/0/primitives/0/mode", "4"));
     seed("normalized_string", set("/accessors/0/normalized", "true"));
-    seed("version_1", set(mutated.ext + "/version", 1));
+    seed("version_1", set(mutated.file_ext + "/version", 1));
     seed("errors_not_monotone", set(mutated.ext + "/errors/0", 1.0));
+    seed("tables_shared", [&](Glb& g) {
+        g.json["nodes"].push_back(g.json["nodes"][2]);
+        g.json["nodes"][1]["children"].push_back(g.json["nodes"].size() - 1);
+    });
+    seed("node_cycle", [&](Glb& g) { g.json["nodes"][1]["children"].push_back(0); });
     seed("table_magic", [&](Glb& g) { g.bin[mutated.table(g)] = 'X'; });
     seed("table_counts", [&](Glb& g) { put32(g.bin, mutated.table(g) + 4, 1u << 31); });
     seed("chunks_shared", [&](Glb& g) {
@@ -536,7 +567,7 @@ TEST(ReadProgressiveGltf, TableAndExtensionFieldsEachSideOfTheirLimits) {
                     "group 0: reserved bytes not 0");
     // chunk ranges: the last chunk ends inside the chunks view (before its padding); a chunk
     // ending one byte past the view's end leaves it
-    const int chunks_view = mutated.glb.json[Json::json_pointer(ext + "/chunks")];
+    const int chunks_view = mutated.glb.json[Json::json_pointer(mutated.file_ext + "/chunks")];
     const std::size_t view_length = mutated.glb.json["bufferViews"][chunks_view]["byteLength"];
     std::size_t last = 0, end = 0;
     for (std::size_t g = 0; g < groups; ++g) {
@@ -559,9 +590,11 @@ TEST(ReadProgressiveGltf, TableAndExtensionFieldsEachSideOfTheirLimits) {
                     "gridStep");
     for (const int version : {1, 3}) {
         try {
-            read_progressive_gltf(
-                mutated([&](Glb& g) { g.json[Json::json_pointer(ext + "/version")] = version; }),
-                "version.glb", nullptr);
+            read_progressive_gltf(mutated([&](Glb& g) {
+                                      g.json[Json::json_pointer(mutated.file_ext + "/version")] =
+                                          version;
+                                  }),
+                                  "version.glb", nullptr);
             ADD_FAILURE() << "extension version " << version << " accepted";
         } catch (const Error& e) {
             EXPECT_NE(std::string(e.what()).find("/version: not 2"), std::string::npos) << e.what();

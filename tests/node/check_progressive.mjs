@@ -49,6 +49,7 @@ import {
     kGlb,
     kPatientNode,
     kSchemaFile,
+    kStorageNode,
     kThreeAttributes,
     kTypeComponents,
 } from '../../web-viewer/strata-format.js';
@@ -63,6 +64,7 @@ import {
 const kHere = dirname(fileURLToPath(import.meta.url));
 const kSchemaDir = resolve(kHere, '../../schema');
 const kRootSchema = kSchemaFile;
+const kFileSchema = `glTF.${kExtension}.schema.json`;
 const kMaxFailLinesPerFile = 60;
 
 // ------------------------------------------------------------------------------------------------
@@ -526,6 +528,12 @@ class FileCheck {
 
     // [schema] -----------------------------------------------------------------------------------
     checkSchema() {
+        const file = this.validateExtension.file;
+        if (!file(this.doc.json.extensions?.[kExtension])) {
+            for (const e of file.errors) {
+                this.fail('schema', `/extensions/${kExtension}${e.instancePath} ${e.message} (${e.schemaPath})`);
+            }
+        }
         for (const { node, index, ext } of this.objects) {
             if (!this.validateExtension(ext)) {
                 for (const e of this.validateExtension.errors) {
@@ -736,7 +744,8 @@ class FileCheck {
                 this.fail('base', `${baseLabel}: ${error.message}`);
             }
             // the chunks
-            const chunks = ext.chunks === undefined ? new Uint8Array(0) : bufferViewBytes(this.doc, ext.chunks);
+            const fileChunks = this.doc.json.extensions?.[kExtension]?.chunks; // one view for every object
+            const chunks = fileChunks === undefined ? new Uint8Array(0) : bufferViewBytes(this.doc, fileChunks);
             table.groups.forEach((group, g) => {
                 const label = `${where} group ${g}`;
                 try {
@@ -929,18 +938,23 @@ class FileCheck {
         // Buffers load lazily, when a bufferView in them is needed; the chunks below need the rest.
         const associations = gltf.parser.associations;
         const nodeOf = (object) => associations.get(object)?.nodes;
-        // the scene: root "patient", one child per object
+        // the scene: root "patient", its one child "storage" (the shared storage frame), one
+        // child of that per object
         const roots = gltf.scene.children;
         const patient = roots.find((o) => json.nodes[nodeOf(o)]?.name === kPatientNode);
         if (roots.length !== 1 || patient === undefined || patient.name !== kPatientNode) {
             fail(`the scene's roots are [${roots.map((o) => o.name)}], not one node "patient"`);
         }
+        const storage = patient?.children.length === 1 ? patient.children[0] : undefined;
+        if (storage === undefined || json.nodes[nodeOf(storage)]?.name !== kStorageNode) {
+            fail(`"patient" has children [${(patient?.children ?? []).map((o) => o.name)}], not one node "storage"`);
+        }
         const objectNodes = new Set(this.objects.map((o) => o.index));
-        const children = patient?.children ?? [];
+        const children = storage?.children ?? [];
         const childNodes = children.map(nodeOf);
         if (children.length !== objectNodes.size || !childNodes.every((i) => objectNodes.has(i))) {
             fail(
-                `"patient" has children [${children.map((o) => o.name)}] (nodes ${childNodes}), ` +
+                `"storage" has children [${children.map((o) => o.name)}] (nodes ${childNodes}), ` +
                     `not the ${objectNodes.size} nodes with ${kExtension} (${[...objectNodes]})`,
             );
         }
@@ -1128,9 +1142,11 @@ function makeExtensionValidator(Ajv) {
         ajv.addSchema(schema, name);
     }
     const validate = ajv.getSchema(kRootSchema);
-    if (validate === undefined) {
-        throw new Error(`no ${kRootSchema} in ${kSchemaDir}`);
+    const file = ajv.getSchema(kFileSchema); // the top-level extension object
+    if (validate === undefined || file === undefined) {
+        throw new Error(`no ${kRootSchema} or ${kFileSchema} in ${kSchemaDir}`);
     }
+    validate.file = file;
     return validate;
 }
 

@@ -56,13 +56,14 @@ function allowedIssues(json) {
     }
     // version 2: the DAG table and chunks views are named only by the extension, and the base
     // meshes' Draco views only by KHR_draco_mesh_compression, which the validator does not read
+    const fileExt = json.extensions?.[kAllowedExtension] ?? {};
+    for (const view of [fileExt.dag, fileExt.chunks].filter((v) => v !== undefined)) {
+        allowed.UNUSED_OBJECT.add(`/bufferViews/${view}`);
+    }
     for (const node of json.nodes ?? []) {
         const ext = node.extensions?.[kAllowedExtension];
         if (ext === undefined) {
             continue;
-        }
-        for (const view of [ext.dag, ext.chunks].filter((v) => v !== undefined)) {
-            allowed.UNUSED_OBJECT.add(`/bufferViews/${view}`);
         }
         for (const primitive of json.meshes?.[node.mesh]?.primitives ?? []) {
             const draco = primitive.extensions?.[kDraco];

@@ -111,6 +111,35 @@ test('DAG table: every validation rule rejects its violation', () => {
     );
 });
 
+test('DAG table: tables of several objects in one dag view, each at its byte offset', () => {
+    // the file's dag view: the example's table, then a one-group table with other ids and sphere
+    const first = encodeTable(kExample);
+    const other = {
+        clusterCount: 5,
+        groups: [
+            { sphere: [1, 2, 3, 4], chunkOffset: 100, chunkLength: 8, consumed: [3, 1, 0], produced: [4], level: 1 },
+        ],
+    };
+    const second = encodeTable(other);
+    const view = new Uint8Array(first.byteLength + second.byteLength);
+    view.set(first, 0);
+    view.set(second, first.byteLength);
+    const a = parseDagTable(view, { ...kInfo, dagOffset: 0 }, 108);
+    assert.equal(a.clusters.length, 3);
+    assert.deepEqual(a.groups[0].consumed, [0, 1]);
+    const b = parseDagTable(view, { ...kInfo, dagOffset: first.byteLength }, 108);
+    assert.equal(b.clusters.length, 5);
+    assert.deepEqual(b.groups[0].consumed, [3, 1, 0]);
+    assert.deepEqual(b.groups[0].sphere, [1, 2, 3, 4]);
+    assert.equal(b.groups[0].chunkOffset, 100);
+    // a table that would run past the view, an offset beyond it
+    assert.throws(
+        () => parseDagTable(view.subarray(0, view.byteLength - 4), { ...kInfo, dagOffset: first.byteLength }, 108),
+        /expected at least/,
+    );
+    assert.throws(() => parseDagTable(view, { ...kInfo, dagOffset: view.byteLength + 4 }, 108), /outside the dag view/);
+});
+
 test('slots: the neighbour order of the spec (survivors, squared length, x, y, z), chains and refusals', () => {
     // a fan: centre 0 at the origin, ring 1..6; squared lengths 4, 5, 5, 4, 5, 5
     const ring = [

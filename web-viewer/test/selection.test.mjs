@@ -118,21 +118,43 @@ async function readModel(file) {
     return { json, buffers, objects };
 }
 
-/// World matrices (column-major arrays) of the nodes (strata writes `matrix` on every node).
-function nodeWorldMatrices(json) {
-    const nodes = json.nodes ?? [];
+const kIdentity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+
+/// a * b, 4 x 4 column-major arrays.
+function multiply(a, b) {
+    return Array.from({ length: 16 }, (_, k) => {
+        const col = Math.floor(k / 4);
+        const row = k % 4;
+        let sum = 0;
+        for (let i = 0; i < 4; ++i) sum += a[4 * i + row] * b[4 * col + i];
+        return sum;
+    });
+}
+
+/// Parent node index of every node (-1: a root).
+function nodeParents(nodes) {
     const parent = new Array(nodes.length).fill(-1);
     nodes.forEach((n, i) => (n.children ?? []).forEach((c) => (parent[c] = i)));
-    const multiply = (a, b) =>
-        Array.from({ length: 16 }, (_, k) => {
-            const col = Math.floor(k / 4);
-            const row = k % 4;
-            let sum = 0;
-            for (let i = 0; i < 4; ++i) sum += a[4 * i + row] * b[4 * col + i];
-            return sum;
-        });
-    const identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
-    const world = (i) => (i < 0 ? identity : multiply(world(parent[i]), nodes[i].matrix ?? identity));
+    return parent;
+}
+
+/// The product of the matrices of a node and its ancestors below the "patient" node: an object's
+/// local frame -> patient mm (its own matrix, absent, and the storage node's).
+function localToPatient(json, index) {
+    const nodes = json.nodes ?? [];
+    const parent = nodeParents(nodes);
+    let m = kIdentity;
+    for (let i = index; i >= 0 && nodes[i].name !== 'patient'; i = parent[i]) {
+        m = multiply(nodes[i].matrix ?? kIdentity, m);
+    }
+    return m;
+}
+
+/// World matrices (column-major arrays) of the nodes.
+function nodeWorldMatrices(json) {
+    const nodes = json.nodes ?? [];
+    const parent = nodeParents(nodes);
+    const world = (i) => (i < 0 ? kIdentity : multiply(world(parent[i]), nodes[i].matrix ?? kIdentity));
     return nodes.map((_, i) => world(i));
 }
 
@@ -608,7 +630,7 @@ test("the plugin's normals over the full-resolution cut are the C++ shading norm
     let compared = 0;
     let worst = 0;
     for (const object of objects) {
-        const M = json.nodes[object.nodeIndex].matrix; // local -> patient mm
+        const M = localToPatient(json, object.nodeIndex); // local -> patient mm
         const ids = new Map();
         const positions = [];
         const triangles = [];
