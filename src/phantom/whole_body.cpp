@@ -131,20 +131,26 @@ Solid rib(int i, double s, Vec3& end) {
     return tube(points, i == 1 ? 6.0 : 5.0);
 }
 
-}  // namespace
+// Sides: +x is the patient's left (LPS).
+constexpr double kLeft = 1.0;
+constexpr double kRight = -1.0;
 
-std::vector<LabelledSolid> whole_body_solids() {
-    std::vector<LabelledSolid> out;
-    auto add = [&out](std::uint16_t label, std::string name, Solid solid) {
+std::string side(double s, const char* left, const char* right) {
+    return std::string(s > 0 ? left : right);
+}
+
+/// Appends labelled solids to `out`, in paint order.
+struct SolidList {
+    std::vector<LabelledSolid>& out;
+    void operator()(std::uint16_t label, std::string name, Solid solid) const {
         out.push_back({label, std::move(name), std::move(solid)});
-    };
-    const double L = 1.0, R = -1.0;  // sides: +x is the patient's left (LPS)
-    auto side = [](double s, const char* left, const char* right) {
-        return std::string(s > 0 ? left : right);
-    };
+    }
+};
 
+/// Muscles (first: organs and bones cover them where they meet) and the lungs' lobes.
+void add_muscles_and_lungs(const SolidList& add) {
     // Muscles first: organs and bones cover them where they meet.
-    for (double s : {L, R}) {
+    for (double s : {kLeft, kRight}) {
         const std::uint16_t l = s > 0 ? 0 : 1;
         std::vector<Vec3> back;
         for (double z : {720.0, 860.0, 1000.0, 1140.0, 1250.0}) {
@@ -167,7 +173,7 @@ std::vector<LabelledSolid> whole_body_solids() {
 
     // Lungs, split into lobes by the oblique fissure (higher at the back) and, on the right,
     // the horizontal one.
-    for (double s : {L, R}) {
+    for (double s : {kLeft, kRight}) {
         const Solid lung = ellipsoid({kMid + s * 85, 245, 1030}, {60, 88, 138});
         // upper side of the oblique fissure z = 1030 + 0.6 (y - 245): -z + 0.6 y <= -883
         const Solid above_oblique = make_solid(HalfSpace{{0, 0.6, -1.0}, 0.6 * 245 - 1030});
@@ -182,7 +188,10 @@ std::vector<LabelledSolid> whole_body_solids() {
             add(14, "lung_lower_lobe_right", subtract(lung, above_oblique));
         }
     }
+}
 
+/// The abdominal, pelvic, neck and chest organs.
+void add_organs(const SolidList& add) {
     // Abdominal and pelvic organs.
     add(5, "liver",
         blobs({{200, 232, 890, 42, 1.0},
@@ -252,7 +261,10 @@ std::vector<LabelledSolid> whole_body_solids() {
                tube({{300, 252, 985}, {334, 264, 964}}, 6.0),
                tube({{232, 252, 985}, {196, 264, 1002}}, 6.0),
                tube({{232, 252, 985}, {196, 264, 964}}, 6.0)}));
+}
 
+/// The vessels, the spine and the cord.
+void add_vessels_and_spine(const SolidList& add) {
     // Vessels.
     add(52, "aorta",
         tube({{262, 214, 965},
@@ -280,7 +292,7 @@ std::vector<LabelledSolid> whole_body_solids() {
                tube({{230, 250, 850}, {200, 236, 880}}, 7.0)}));
     const Vec3 aorta_end{252, spine_y(760) - 30, 745};
     const Vec3 cava_end{238, spine_y(740) - 22, 720};
-    for (double s : {L, R}) {
+    for (double s : {kLeft, kRight}) {
         const std::uint16_t l = s > 0 ? 0 : 1;
         add(65 + l, side(s, "iliac_artery_left", "iliac_artery_right"),
             tube({aorta_end, {kMid + s * 45, 262, 680}, {kMid + s * 80, 226, 600}}, 7.0));
@@ -301,11 +313,14 @@ std::vector<LabelledSolid> whole_body_solids() {
             add(static_cast<std::uint16_t>(26 + i), spine[i].name, vertebra(spine[i]));
         }
     }
+}
 
+/// Ribs, costal cartilages, sternum, shoulder girdle, arms; the skull around the brain.
+void add_thorax_and_head(const SolidList& add) {
     // Thorax: ribs, costal cartilages, sternum, shoulder girdle, arms.
     {
         std::vector<Solid> cartilages;
-        for (double s : {L, R}) {
+        for (double s : {kLeft, kRight}) {
             for (int i = 1; i <= 12; ++i) {
                 Vec3 end;
                 Solid r = rib(i, s, end);
@@ -320,7 +335,7 @@ std::vector<LabelledSolid> whole_body_solids() {
         add(117, "costal_cartilages", unite(std::move(cartilages)));
         add(116, "sternum", ellipsoid({kMid, 150, 1050}, {15, 7, 95}));
     }
-    for (double s : {L, R}) {
+    for (double s : {kLeft, kRight}) {
         const std::uint16_t l = s > 0 ? 0 : 1;
         add(73 + l, side(s, "clavicula_left", "clavicula_right"),
             tube({{kMid + s * 18, 160, 1160},
@@ -351,6 +366,17 @@ std::vector<LabelledSolid> whole_body_solids() {
         subtract(ellipsoid({kMid, 260, 1390}, {78, 95, 90}),
                  ellipsoid({kMid, 260, 1394}, {71, 88, 83})));
     add(90, "brain", ellipsoid({kMid, 260, 1395}, {67, 84, 77}));
+}
+
+}  // namespace
+
+std::vector<LabelledSolid> whole_body_solids() {
+    std::vector<LabelledSolid> out;
+    const SolidList add{out};
+    add_muscles_and_lungs(add);
+    add_organs(add);
+    add_vessels_and_spine(add);
+    add_thorax_and_head(add);
     return out;
 }
 
