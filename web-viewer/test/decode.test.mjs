@@ -5,7 +5,7 @@
 // known by symmetry.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { parseDagTable, resolveSlots, shadingNormals, splitByCluster } from '../strata-decode.js';
+import { parseDagTable, resolveSlots, shadingNormals, splitByCluster, weldPoints } from '../strata-decode.js';
 
 /// The DAG table of schema/README.md: 16-byte header, 32-byte records, id lists, zero padding.
 function encodeTable({ clusterCount, idBytes = 2, groups, magic = 'SDAG', padding = 0 }) {
@@ -242,4 +242,29 @@ test('shading normals: a plane, and an octahedron (normals radial by symmetry; t
     // a vertex in no triangle gets (0, 0, 1)
     const lone = shadingNormals(Float64Array.from([...p, 5, 5, 5]), Uint32Array.from(faces), 7);
     assert.deepEqual([...lone.subarray(18, 21)], [0, 0, 1]);
+});
+
+test('weldPoints: points of equal float32 positions (-0 as +0) share an id, first-seen order', () => {
+    // random points drawn from a small pool (many repeats, some -0), against ids from string keys
+    let seed = 3;
+    const random = () => ((seed = (seed * 1103515245 + 12345) % 2 ** 31), seed / 2 ** 31);
+    for (let round = 0; round < 10; ++round) {
+        const n = 1 + Math.floor(random() * 5000);
+        const pool = Array.from({ length: 1 + Math.floor(random() * n) }, () =>
+            [0, 1, 2].map(() => (random() < 0.1 ? (random() < 0.5 ? -0 : 0) : Math.round(random() * 64) / 8 - 4)),
+        );
+        const positions = new Float32Array(3 * n);
+        for (let p = 0; p < n; ++p) positions.set(pool[Math.floor(random() * pool.length)], 3 * p);
+        const ids = new Map();
+        const expected = [];
+        for (let p = 0; p < n; ++p) {
+            const key = [0, 1, 2].map((k) => String(positions[3 * p + k] + 0)).join(',');
+            if (!ids.has(key)) ids.set(key, ids.size);
+            expected.push(ids.get(key));
+        }
+        const welded = weldPoints(positions);
+        assert.equal(welded.count, ids.size);
+        assert.deepEqual([...welded.vertexOf], expected);
+        for (let v = 0; v < welded.count; ++v) assert.equal(expected[welded.first[v]], v);
+    }
 });
