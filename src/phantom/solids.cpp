@@ -111,27 +111,34 @@ constexpr int kMaxBisections =
 // of the smallest axis from inside; there s + 1 loses all relative precision (1e-16 absolute).
 // We bisect on u = s + 1 instead, so x_last = y_last / u keeps full relative precision.
 // (e_i / e_last)^2 - 1 is computed as (e_i - e_last)(e_i + e_last) / e_last^2.
-double ellipse_root_u(double d0, double n0, double z1, double g) {
-    double u0 = z1;
-    double u1 = g < 0.0 ? 1.0 : robust_length(n0, z1);
+/// Eberly's bisection on [u0, u1] for the root of g, which decreases in u: halves the interval
+/// until it stops shrinking (full double precision) or g is exactly 0.
+template <class G>
+double bisect_root_u(double u0, double u1, G&& g) {
     double u = u0;
     for (int i = 0; i < kMaxBisections; ++i) {
         u = 0.5 * (u0 + u1);
         if (u == u0 || u == u1) {
             break;
         }
-        const double ratio0 = n0 / (u + d0);
-        const double ratio1 = z1 / u;
-        g = ratio0 * ratio0 + ratio1 * ratio1 - 1.0;
-        if (g > 0.0) {
+        const double value = g(u);
+        if (value > 0.0) {
             u0 = u;
-        } else if (g < 0.0) {
+        } else if (value < 0.0) {
             u1 = u;
         } else {
             break;
         }
     }
     return u;
+}
+
+double ellipse_root_u(double d0, double n0, double z1, double g) {
+    return bisect_root_u(z1, g < 0.0 ? 1.0 : robust_length(n0, z1), [&](double u) {
+        const double ratio0 = n0 / (u + d0);
+        const double ratio1 = z1 / u;
+        return ratio0 * ratio0 + ratio1 * ratio1 - 1.0;
+    });
 }
 
 // e0 >= e1 > 0, y0 >= 0, y1 >= 0.
@@ -165,27 +172,12 @@ double distance_point_ellipse(double e0, double e1, double y0, double y1) {
 }
 
 double ellipsoid_root_u(double d0, double d1, double n0, double n1, double z2, double g) {
-    double u0 = z2;
-    double u1 = g < 0.0 ? 1.0 : robust_length(n0, n1, z2);
-    double u = u0;
-    for (int i = 0; i < kMaxBisections; ++i) {
-        u = 0.5 * (u0 + u1);
-        if (u == u0 || u == u1) {
-            break;
-        }
+    return bisect_root_u(z2, g < 0.0 ? 1.0 : robust_length(n0, n1, z2), [&](double u) {
         const double ratio0 = n0 / (u + d0);
         const double ratio1 = n1 / (u + d1);
         const double ratio2 = z2 / u;
-        g = ratio0 * ratio0 + ratio1 * ratio1 + ratio2 * ratio2 - 1.0;
-        if (g > 0.0) {
-            u0 = u;
-        } else if (g < 0.0) {
-            u1 = u;
-        } else {
-            break;
-        }
-    }
-    return u;
+        return ratio0 * ratio0 + ratio1 * ratio1 + ratio2 * ratio2 - 1.0;
+    });
 }
 
 // e0 >= e1 >= e2 > 0, y0, y1, y2 >= 0.
