@@ -165,10 +165,9 @@ void LabelSurface::insert_steiners(Cdt& cdt,
     for (const Point& p : points) {
         insert_steiner(cdt, p, k);
     }
-    flood_regions(cdt, k, owners);
-    if (unowned_edges_ != 0) {
-        issue(k, std::string(what) + " split " + std::to_string(unowned_edges_) + " edges");
-        unowned_edges_ = 0;
+    const std::size_t unowned = flood_regions(cdt, k, owners);
+    if (unowned != 0) {
+        issue(k, std::string(what) + " split " + std::to_string(unowned) + " edges");
     }
 }
 

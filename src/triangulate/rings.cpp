@@ -238,11 +238,11 @@ void LabelSurface::insert_rings(Cdt& cdt,
     }
 }
 
-/// Labels every face with the region of slice k and of slice k+1 it lies in, by walking from the
-/// infinite face and toggling the region across each contour edge.
-void LabelSurface::flood_regions(Cdt& cdt,
-                                 std::uint32_t k,
-                                 const std::map<EdgeKey, EdgeOwner>& owners) {
+/// Walks from the infinite face, toggling the region across each contour edge.
+std::size_t LabelSurface::flood_regions(Cdt& cdt,
+                                        std::uint32_t k,
+                                        const std::map<EdgeKey, EdgeOwner>& owners) {
+    std::size_t unowned = 0;
     for (FaceHandle f : cdt.all_face_handles()) {
         f->info() = FaceInfo{};
     }
@@ -266,7 +266,7 @@ void LabelSurface::flood_regions(Cdt& cdt,
             if (cdt.is_constrained({f, i})) {
                 const auto it = owners.find(edge_key(f->vertex(ccw(i)), f->vertex(cw(i))));
                 if (it == owners.end()) {
-                    ++unowned_edges_;
+                    ++unowned;
                 }
                 if (it != owners.end()) {
                     if (it->second.lower >= 0) {
@@ -288,6 +288,7 @@ void LabelSurface::flood_regions(Cdt& cdt,
             queue.push_back(n);
         }
     }
+    return unowned;
 }
 
 bool LabelSurface::in_lower(const FaceInfo& f, std::uint32_t k) const {

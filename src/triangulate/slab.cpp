@@ -72,11 +72,10 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
     std::map<EdgeKey, EdgeOwner> owners;
     insert_rings(cdt, k, false, owners);
     insert_rings(cdt, k + 1, true, owners);
-    flood_regions(cdt, k, owners);
-    if (unowned_edges_ != 0) {
+    const std::size_t unowned = flood_regions(cdt, k, owners);
+    if (unowned != 0) {
         ++surface_.failed_slabs;
-        issue(k, std::to_string(unowned_edges_) + " contour edges cross unexpectedly");
-        unowned_edges_ = 0;
+        issue(k, std::to_string(unowned) + " contour edges cross unexpectedly");
     }
     check_overlap_topology(cdt, k);
 

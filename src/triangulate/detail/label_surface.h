@@ -221,7 +221,12 @@ private:
                       bool upper,
                       std::map<EdgeKey, EdgeOwner>& owners,
                       std::int64_t only_region = -1);
-    void flood_regions(Cdt& cdt, std::uint32_t k, const std::map<EdgeKey, EdgeOwner>& owners);
+    /// Labels every face with the region of slice k and of slice k+1 it lies in. Returns the
+    /// number of constrained edges no contour owns: contour edges that crossed or were split by
+    /// an inserted point (0 unless something went wrong).
+    std::size_t flood_regions(Cdt& cdt,
+                              std::uint32_t k,
+                              const std::map<EdgeKey, EdgeOwner>& owners);
     /// Inserts Steiner points in slab k, floods the regions again and reports the edges they
     /// split (`what` names the points in the report).
     void insert_steiners(Cdt& cdt,
@@ -319,7 +324,6 @@ private:
     std::vector<Vec2> steiner_xy_;
     /// The contour rings of the slab being built's two slices (height_t).
     std::array<SegmentGrid, 2> slab_rings_;
-    std::size_t unowned_edges_ = 0;
     std::vector<std::uint32_t> mismatched_slabs_;
 
 public:
