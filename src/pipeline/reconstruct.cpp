@@ -5,13 +5,12 @@
 #include <chrono>
 #include <mutex>
 #include <numeric>
-#include <optional>
 #include <utility>
 
-#include "contours/simplify_contours.h"
 #include "core/parallel.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
+#include "pipeline/repair.h"
 #include "triangulate/reference_topology.h"
 
 namespace strata {
@@ -115,82 +114,6 @@ void verify_surface(const ReferenceTopology& reference, ObjectSurface& surface) 
 
 namespace {
 
-/// The quantize stage for one surface, with verification: snaps it to the grid of
-/// `options.step` and verifies the snapped surface. When the surface does not snap, or its
-/// snapped form fails verification while the original passes, the step is halved (up to
-/// `options.max_halvings` times); failing that, the original is kept unsnapped. Returns why the
-/// surface stayed unsnapped (empty when it was snapped or quantization is off).
-std::string quantize_and_verify(const SliceStack& stack,
-                                double slice_spacing_px,
-                                const QuantizeOptions& options,
-                                bool verify,
-                                ObjectSurface& surface) {
-    // note: the reference depends on the label alone: read once however many attempts
-    std::optional<ReferenceTopology> reference;
-    auto verify_once = [&](const SliceStack& in, ObjectSurface& s) {
-        if (!reference) {
-            reference = reference_topology(in, s.label);
-        }
-        verify_surface(*reference, s);
-    };
-    if (!options.enabled || surface.mesh.positions.empty()) {
-        if (verify) {
-            verify_once(stack, surface);
-        }
-        return {};
-    }
-    const TriMesh original = surface.mesh;
-    std::string why;
-    bool original_checked = false;
-    double step = options.step;
-    for (unsigned attempt = 0; attempt <= options.max_halvings; ++attempt, step /= 2.0) {
-        GridSnap snap;
-        if (!snap_to_grid(original, slice_spacing_px, step, snap, why)) {
-            continue;
-        }
-        surface.mesh = std::move(snap.mesh);
-        surface.grid_step = step;
-        surface.grid_shift_px = snap.max_plane_shift_px;
-        if (!verify) {
-            // note: snapping may push nearly touching sheets through each other; without the
-            // full verification, check that much (exact)
-            if (!has_self_intersections(surface.mesh)) {
-                return {};
-            }
-            why = "the surface snapped to the grid of step " + std::to_string(step) +
-                  " intersects itself";
-            continue;
-        }
-        verify_once(stack, surface);
-        if (surface.verification.ok()) {
-            return {};
-        }
-        why = "the surface snapped to the grid of step " + std::to_string(step) +
-              " failed verification: " + surface.verification.problem;
-        if (!original_checked) {
-            // note: a surface that fails unsnapped too keeps the triangulation's problem; snapping
-            // finer cannot help then.
-            ObjectSurface unsnapped = surface;
-            unsnapped.mesh = original;
-            verify_once(stack, unsnapped);
-            original_checked = true;
-            if (!unsnapped.verification.ok()) {
-                surface = std::move(unsnapped);
-                surface.grid_step = 0.0;
-                surface.grid_shift_px = 0.0;
-                return {};
-            }
-        }
-    }
-    surface.mesh = original;
-    surface.grid_step = 0.0;
-    surface.grid_shift_px = 0.0;
-    if (verify) {
-        verify_once(stack, surface);
-    }
-    return "kept unsnapped (no progressive export): " + why;
-}
-
 /// Frees the distance fields of `label` on every slice (they stay in place, empty).
 /// note: other threads read other labels' fields meanwhile; the label member stays as it was.
 void release_fields(std::vector<SliceDistanceFields>& fields, std::uint16_t label) {
@@ -243,8 +166,8 @@ Reconstruction reconstruct(const SliceStack& stack,
     if (!triangulate_options.progress) {
         triangulate_options.progress = options.progress;
     }
-    result.surfaces = triangulate_surfaces(stack, result.contours, result.fields,
-                                           result.medial_axes, triangulate_options);
+    result.surfaces = triangulate_with_repairs(stack, result.contours, result.fields,
+                                               result.medial_axes, triangulate_options);
     clock.done("triangulate");
     if (options.quantize.enabled || options.verify) {
         std::vector<std::string> unsnapped(result.surfaces.size());
@@ -252,8 +175,8 @@ Reconstruction reconstruct(const SliceStack& stack,
         std::mutex checked_mutex;
         const char* stage = options.quantize.enabled ? "quantize+verify labels" : "verify labels";
         parallel_for(result.surfaces.size(), options.threads, [&](std::size_t i) {
-            unsnapped[i] = quantize_and_verify(stack, result.slice_spacing_px, options.quantize,
-                                               options.verify, result.surfaces[i]);
+            unsnapped[i] = quantize_with_repairs(stack, result.slice_spacing_px, options.quantize,
+                                                 options.verify, result.surfaces[i]);
             if (options.progress) {
                 const std::lock_guard<std::mutex> lock(checked_mutex);
                 options.progress(stage, ++checked, result.surfaces.size());
@@ -268,41 +191,10 @@ Reconstruction reconstruct(const SliceStack& stack,
                 redo.push_back(i);
             }
         }
-        if (!redo.empty()) {
-            TriangulateOptions again = triangulate_options;
-            again.progress = nullptr;
-            SimplifyOptions corners;
-            corners.tolerance_px = contour_options.tolerance_px;
-            corners.edge_midpoints = false;
-            for (const std::size_t i : redo) {
-                for (SliceContourSet& set : result.contours.slices) {
-                    resimplify_label(set, result.surfaces[i].label, corners);
-                }
-                again.labels.push_back(result.surfaces[i].label);
-            }
-            result.medial_axes =
-                extract_medial_axes(result.contours, result.fields, medial_options);
-            std::vector<ObjectSurface> rebuilt = triangulate_surfaces(
-                stack, result.contours, result.fields, result.medial_axes, again);
-            for (std::size_t j = 0; j < redo.size(); ++j) {
-                const std::size_t i = redo[j];
-                const std::string first_try = unsnapped[i];
-                result.surfaces[i] = std::move(rebuilt[j]);
-                unsnapped[i] = quantize_and_verify(stack, result.slice_spacing_px, options.quantize,
-                                                   options.verify, result.surfaces[i]);
-                // note: the warning says how the retry ended (the quantize warning below says
-                // so again when it failed too)
-                const std::string why = first_try.substr(first_try.find(": ") + 2);
-                report.warn(
-                    "contours", "label " + std::to_string(result.surfaces[i].label),
-                    "could not be snapped to a grid with edge-midpoint contours (" + why +
-                        "); built again with contour vertices at pixel corners only: " +
-                        (unsnapped[i].empty() ? "snapped to the grid of step " +
-                                                    std::to_string(result.surfaces[i].grid_step) +
-                                                    " px, in the progressive model"
-                                              : "still " + unsnapped[i]));
-            }
-        }
+        rebuild_at_corners(stack,
+                           {contour_options.tolerance_px, medial_options, triangulate_options,
+                            options.quantize, options.verify},
+                           redo, result, unsnapped, report);
         clock.done(options.quantize.enabled ? "quantize+verify" : "verify");
         for (std::size_t i = 0; i < unsnapped.size(); ++i) {
             if (!unsnapped[i].empty()) {

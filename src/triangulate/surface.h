@@ -103,24 +103,16 @@ struct ObjectSurface {
     double grid_shift_px = 0.0;
 };
 
-/// The fallback's radius (px) around a neighbouring slice's contours within which simplified
-/// edges go back to their original points: the two contours' simplification tolerances plus
-/// half a pixel (the contour sites lie every half pixel).
-double unsimplify_radius_px(double tolerance_px);
+/// One label's triangulation: its surface, and the slabs it could not build as the pixels ask.
+struct LabelTriangulation {
+    ObjectSurface surface;
+    /// Slabs (their lower slice, increasing) whose contours overlap in another pattern than the
+    /// pixels do: the surface follows the polygons there, so its topology can differ from the
+    /// reference. The pipeline's repair policy (pipeline/repair.h) decides what to do.
+    std::vector<std::uint32_t> mismatched_slabs;
+};
 
-/// The local fallback for slice `slice` of `label`: every simplified edge of the label's
-/// contours in `set` that replaces an original point within `radius_px` of an original contour
-/// of the label on slice - 1 or slice + 1 (by those slices' distance fields in `fields`) is
-/// replaced by its original points; the rest stays as it is. Only where the contours of
-/// neighbouring slices come that close can simplification change how they overlap. Returns
-/// whether any edge changed. The result may cross itself: the caller checks.
-bool unsimplify_near_neighbours(SliceContourSet& set,
-                                std::uint16_t label,
-                                const std::vector<SliceDistanceFields>& fields,
-                                std::uint32_t slice,
-                                double radius_px);
-
-/// Triangulates every label of the stack (paper section 5) into one closed surface each.
+/// Triangulates one label of the stack (paper section 5) into one closed surface.
 ///
 /// Between slices k and k+1 the surface is the graph, over the symmetric difference of the two
 /// slices' simplified regions (only regions linked across the slab), of the shape-based
@@ -136,12 +128,29 @@ bool unsimplify_near_neighbours(SliceContourSet& set,
 /// close visibly is extended by d/2 instead); a region alone on its slice becomes a slab of
 /// thickness d/2.
 /// Contour edges are shared exactly between the slabs and caps on both sides of a slice.
-/// Output: labels in increasing order (`options.labels` when given), vertices without
-/// duplicates, triangles outward CCW.
-std::vector<ObjectSurface> triangulate_surfaces(const SliceStack& stack,
-                                                const SliceContours& contours,
-                                                const std::vector<SliceDistanceFields>& fields,
-                                                const std::vector<MedialAxis>& medial_axes,
-                                                const TriangulateOptions& options);
+/// Output: vertices without duplicates, triangles outward CCW;
+/// `surface.contour_deviation_px` is that of `contours`. `options.labels`, `threads` and
+/// `progress` are not used here.
+LabelTriangulation triangulate_label(const SliceContours& contours,
+                                     const std::vector<SliceDistanceFields>& fields,
+                                     const std::vector<MedialAxis>& medial_axes,
+                                     const TriangulateOptions& options,
+                                     std::uint16_t label);
+
+/// The same with every slab k where `split[k]` split at the pixels' AND layer: a level half way
+/// between the slices whose contours are those of the pixels of `label` in both slices of
+/// `stack` (the reference volume's own middle layer), so the surface meets it as R does. Issues
+/// and mismatched slabs name the slices of `stack`.
+LabelTriangulation triangulate_label_split(const SliceStack& stack,
+                                           const SliceContours& contours,
+                                           const std::vector<SliceDistanceFields>& fields,
+                                           const std::vector<MedialAxis>& medial_axes,
+                                           const TriangulateOptions& options,
+                                           std::uint16_t label,
+                                           const std::vector<bool>& split);
+
+/// Whether the simplified contours of `label` on one slice are simple and pairwise disjoint
+/// (exact predicates), as the triangulation needs them.
+bool contours_clean(const SliceContourSet& set, std::uint16_t label);
 
 }  // namespace strata

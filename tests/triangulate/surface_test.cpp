@@ -17,6 +17,7 @@
 #include "mesh/self_intersection.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
+#include "pipeline/repair.h"
 #include "support/cut_error.h"
 #include "support/slice_section.h"
 #include "support/surface_checks.h"

@@ -9,7 +9,7 @@
 //   slab.cpp           one slab: medial, curvature and refinement points, then its triangles;
 //   caps.cpp           end caps: planar, domed, or a region alone on its slice;
 //   split_slabs.cpp    the stack with the pixels' AND layer inserted in slabs that still mismatch;
-//   surface.cpp        build() runs the phases; the fallbacks and the public entry points.
+//   surface.cpp        build() runs the phases; the public entry points (triangulate_label).
 #pragma once
 
 #include <array>
@@ -203,7 +203,7 @@ public:
           label_(label),
           level_z_(level_z) {}
 
-    ObjectSurface build();
+    LabelTriangulation build();
 
 private:
     // --- set-up --------------------------------------------------------------------------------
@@ -326,11 +326,6 @@ private:
     std::array<SegmentGrid, 2> slab_rings_;
     std::vector<std::uint32_t> mismatched_slabs_;
 
-public:
-    /// Slabs whose simplified contours overlapped unlike the pixels (filled by build()).
-    const std::vector<std::uint32_t>& mismatched_slabs() const { return mismatched_slabs_; }
-
-private:
     /// Collinear overlaps of a slice k edge and a slice k+1 edge (slice, local contour, edge):
     /// every point on one edge inside the overlap must be on the other too.
     struct Overlap {

@@ -1,0 +1,363 @@
+// The repair policy (repair.h): every step the pipeline takes where a stage cannot give its
+// guarantee, in the order it is tried. The stages report what they could not do (the
+// triangulation its mismatched slabs, the quantize stage a surface that does not snap); what is
+// done about it is decided here alone.
+#include "pipeline/repair.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstddef>
+#include <mutex>
+#include <numeric>
+#include <optional>
+#include <utility>
+
+#include "contours/simplify_contours.h"
+#include "core/parallel.h"
+#include "mesh/self_intersection.h"
+
+namespace strata {
+
+namespace {
+
+/// What the steps on one slice of a mismatched slab need to know.
+struct SliceRepairContext {
+    std::uint16_t label = 0;
+    const std::vector<SliceDistanceFields>& fields;
+    SimplifyOptions corners;  ///< the contours' tolerance, vertices at pixel corners only
+    double radius_px = 0.0;   ///< of kOriginalNearNeighbours
+};
+
+/// A step on one slice of a mismatched slab: changes the label's contours in `set` and returns
+/// true, or returns false with `set` as it was (the step cannot help there: the next is tried).
+using SliceRepair = bool (*)(SliceContourSet& set,
+                             std::uint32_t slice,
+                             const SliceRepairContext& context);
+
+bool corner_vertices(SliceContourSet& set, std::uint32_t, const SliceRepairContext& context) {
+    return resimplify_label(set, context.label, context.corners);
+}
+
+bool original_near_neighbours(SliceContourSet& set,
+                              std::uint32_t slice,
+                              const SliceRepairContext& context) {
+    const SliceContourSet before = set;
+    if (unsimplify_near_neighbours(set, context.label, context.fields, slice, context.radius_px)) {
+        if (contours_clean(set, context.label)) {
+            return true;
+        }
+        set = before;
+    }
+    return false;
+}
+
+bool original_contours(SliceContourSet& set, std::uint32_t, const SliceRepairContext& context) {
+    for (Contour& c : set.contours) {
+        if (c.label == context.label) {
+            c.simplified.resize(c.points.size());
+            std::iota(c.simplified.begin(), c.simplified.end(), 0u);
+            c.edge_deviation_px.assign(c.points.size(), 0.0);
+        }
+    }
+    return true;
+}
+
+/// kCornerVertices .. kOriginalContours, in the order of kRepairPolicy: each slice of a
+/// mismatched slab goes one step further per attempt (a whole original slice left a row of
+/// staircase notches between smooth neighbours, so it comes last); steps that change nothing
+/// are skipped.
+constexpr std::array<std::pair<RepairStep, SliceRepair>, 3> kSliceRepairs{{
+    {RepairStep::kCornerVertices, &corner_vertices},
+    {RepairStep::kOriginalNearNeighbours, &original_near_neighbours},
+    {RepairStep::kOriginalContours, &original_contours},
+}};
+static_assert(kSliceRepairs[0].first == kRepairPolicy[0].step &&
+              kSliceRepairs[1].first == kRepairPolicy[1].step &&
+              kSliceRepairs[2].first == kRepairPolicy[2].step);
+
+/// Triangulations of a label with the slice steps, at most (the label is built again each time).
+constexpr int kSliceRepairAttempts = 4;
+
+/// One label's surface with the repairs of its mismatched slabs (kCornerVertices ..
+/// kSplitAtAndLayer), recorded in the surface.
+ObjectSurface triangulate_label_with_repairs(const SliceStack& stack,
+                                             const SliceContours& contours,
+                                             const std::vector<SliceDistanceFields>& fields,
+                                             const std::vector<MedialAxis>& medial_axes,
+                                             const TriangulateOptions& options,
+                                             std::uint16_t label) {
+    LabelTriangulation built = triangulate_label(contours, fields, medial_axes, options, label);
+    if (built.mismatched_slabs.empty()) {
+        return std::move(built.surface);
+    }
+    SliceContours repaired = contours;
+    SliceRepairContext context{label, fields, {}, unsimplify_radius_px(contours.tolerance_px)};
+    context.corners.tolerance_px = contours.tolerance_px;
+    context.corners.edge_midpoints = false;
+    // Per slice: the slice steps tried so far (the next one to try).
+    std::vector<std::size_t> tried(contours.slices.size(), 0);
+    for (int attempt = 0; attempt < kSliceRepairAttempts && !built.mismatched_slabs.empty();
+         ++attempt) {
+        for (const std::uint32_t k : built.mismatched_slabs) {
+            for (const std::uint32_t slice : {k, k + 1}) {
+                while (tried[slice] < kSliceRepairs.size()) {
+                    const SliceRepair step = kSliceRepairs[tried[slice]++].second;
+                    if (step(repaired.slices[slice], slice, context)) {
+                        break;
+                    }
+                }
+            }
+        }
+        built = triangulate_label(repaired, fields, medial_axes, options, label);
+    }
+    ObjectSurface surface;
+    if (!built.mismatched_slabs.empty()) {
+        std::vector<bool> split(contours.slices.size(), false);
+        for (const std::uint32_t k : built.mismatched_slabs) {
+            split[k] = true;
+        }
+        surface =
+            triangulate_label_split(stack, repaired, fields, medial_axes, options, label, split)
+                .surface;
+        surface.split_slabs = std::uint32_t(built.mismatched_slabs.size());
+    } else {
+        surface = std::move(built.surface);
+    }
+    for (std::uint32_t k = 0; k < tried.size(); ++k) {
+        if (tried[k] > 2) {
+            surface.unsimplified.push_back(k);
+            continue;
+        }
+        if (tried[k] > 0) {
+            surface.at_corners.push_back(k);
+        }
+        if (tried[k] > 1) {
+            surface.partly_unsimplified.push_back(k);
+        }
+    }
+    surface.unsimplified_slices = std::uint32_t(surface.unsimplified.size());
+    return surface;
+}
+
+}  // namespace
+
+double unsimplify_radius_px(double tolerance_px) {
+    return 2.0 * tolerance_px + 0.5;
+}
+
+bool unsimplify_near_neighbours(SliceContourSet& set,
+                                std::uint16_t label,
+                                const std::vector<SliceDistanceFields>& fields,
+                                std::uint32_t slice,
+                                double radius_px) {
+    std::vector<const DistanceField*> others;
+    for (const std::int64_t s : {std::int64_t(slice) - 1, std::int64_t(slice) + 1}) {
+        if (s < 0 || s >= std::int64_t(fields.size())) {
+            continue;
+        }
+        for (const DistanceField& f : fields[std::size_t(s)].fields) {
+            if (f.label == label) {
+                others.push_back(&f);
+            }
+        }
+    }
+    auto near = [&](Vec2 p) {
+        for (const DistanceField* f : others) {
+            const double u = std::round((p.x - f->origin_x) / DistanceField::kCellPx);
+            const double v = std::round((p.y - f->origin_y) / DistanceField::kCellPx);
+            if (!(u >= 0.0 && v >= 0.0 && u <= f->nx - 1.0 && v <= f->ny - 1.0)) {
+                if (f->outside_window_px <= radius_px) {
+                    return true;
+                }
+                continue;
+            }
+            if (std::abs(f->at(std::uint32_t(u), std::uint32_t(v))) <= radius_px) {
+                return true;
+            }
+        }
+        return false;
+    };
+    bool changed = false;
+    for (Contour& c : set.contours) {
+        if (c.label != label) {
+            continue;
+        }
+        const std::size_t n = c.points.size();
+        const std::size_t m = c.simplified.size();
+        std::vector<bool> keep(n, false);
+        std::vector<double> deviation(n, 0.0);  // of the edge starting at each kept point
+        bool grew = false;
+        for (std::size_t e = 0; e < m; ++e) {
+            const std::uint32_t a = c.simplified[e];
+            const std::uint32_t b = c.simplified[(e + 1) % m];
+            keep[a] = true;
+            deviation[a] = c.edge_deviation_px[e];
+            const std::size_t span = (b + n - a) % n;
+            if (span <= 1) {
+                continue;
+            }
+            bool expand = false;
+            for (std::size_t s = 0; s <= span && !expand; ++s) {
+                expand = near(c.points[(a + s) % n]);
+            }
+            if (expand) {
+                for (std::size_t s = 0; s < span; ++s) {
+                    keep[(a + s) % n] = true;
+                    deviation[(a + s) % n] = 0.0;
+                }
+                grew = true;
+            }
+        }
+        if (!grew) {
+            continue;
+        }
+        changed = true;
+        c.simplified.clear();
+        c.edge_deviation_px.clear();
+        for (std::uint32_t i = 0; i < n; ++i) {
+            if (keep[i]) {
+                c.simplified.push_back(i);
+                c.edge_deviation_px.push_back(deviation[i]);
+            }
+        }
+    }
+    return changed;
+}
+
+std::vector<ObjectSurface> triangulate_with_repairs(const SliceStack& stack,
+                                                    const SliceContours& contours,
+                                                    const std::vector<SliceDistanceFields>& fields,
+                                                    const std::vector<MedialAxis>& medial_axes,
+                                                    const TriangulateOptions& options) {
+    const std::vector<std::uint16_t> labels =
+        options.labels.empty() ? contour_labels(contours) : options.labels;
+    std::vector<ObjectSurface> surfaces(labels.size());
+    std::atomic<std::size_t> done{0};
+    std::mutex progress_mutex;
+    parallel_for(labels.size(), options.threads, [&](std::size_t i) {
+        surfaces[i] = triangulate_label_with_repairs(stack, contours, fields, medial_axes, options,
+                                                     labels[i]);
+        if (options.progress) {
+            const std::lock_guard lock(progress_mutex);
+            options.progress("objects", ++done, labels.size());
+        }
+    });
+    return surfaces;
+}
+
+std::string quantize_with_repairs(const SliceStack& stack,
+                                  double slice_spacing_px,
+                                  const QuantizeOptions& options,
+                                  bool verify,
+                                  ObjectSurface& surface) {
+    // note: the reference depends on the label alone: read once however many attempts
+    std::optional<ReferenceTopology> reference;
+    auto verify_once = [&](const SliceStack& in, ObjectSurface& s) {
+        if (!reference) {
+            reference = reference_topology(in, s.label);
+        }
+        verify_surface(*reference, s);
+    };
+    if (!options.enabled || surface.mesh.positions.empty()) {
+        if (verify) {
+            verify_once(stack, surface);
+        }
+        return {};
+    }
+    const TriMesh original = surface.mesh;
+    std::string why;
+    bool original_checked = false;
+    double step = options.step;
+    for (unsigned attempt = 0; attempt <= options.max_halvings; ++attempt, step /= 2.0) {
+        GridSnap snap;
+        if (!snap_to_grid(original, slice_spacing_px, step, snap, why)) {
+            continue;
+        }
+        surface.mesh = std::move(snap.mesh);
+        surface.grid_step = step;
+        surface.grid_shift_px = snap.max_plane_shift_px;
+        if (!verify) {
+            // note: snapping may push nearly touching sheets through each other; without the
+            // full verification, check that much (exact)
+            if (!has_self_intersections(surface.mesh)) {
+                return {};
+            }
+            why = "the surface snapped to the grid of step " + std::to_string(step) +
+                  " intersects itself";
+            continue;
+        }
+        verify_once(stack, surface);
+        if (surface.verification.ok()) {
+            return {};
+        }
+        why = "the surface snapped to the grid of step " + std::to_string(step) +
+              " failed verification: " + surface.verification.problem;
+        if (!original_checked) {
+            // note: a surface that fails unsnapped too keeps the triangulation's problem; snapping
+            // finer cannot help then.
+            ObjectSurface unsnapped = surface;
+            unsnapped.mesh = original;
+            verify_once(stack, unsnapped);
+            original_checked = true;
+            if (!unsnapped.verification.ok()) {
+                surface = std::move(unsnapped);
+                surface.grid_step = 0.0;
+                surface.grid_shift_px = 0.0;
+                return {};
+            }
+        }
+    }
+    surface.mesh = original;
+    surface.grid_step = 0.0;
+    surface.grid_shift_px = 0.0;
+    if (verify) {
+        verify_once(stack, surface);
+    }
+    return "kept unsnapped (no progressive export): " + why;
+}
+
+void rebuild_at_corners(const SliceStack& stack,
+                        const RebuildOptions& options,
+                        const std::vector<std::size_t>& redo,
+                        Reconstruction& result,
+                        std::vector<std::string>& unsnapped,
+                        Report& report) {
+    if (redo.empty()) {
+        return;
+    }
+    TriangulateOptions again = options.triangulate;
+    again.progress = nullptr;
+    again.labels.clear();
+    SimplifyOptions corners;
+    corners.tolerance_px = options.tolerance_px;
+    corners.edge_midpoints = false;
+    for (const std::size_t i : redo) {
+        for (SliceContourSet& set : result.contours.slices) {
+            resimplify_label(set, result.surfaces[i].label, corners);
+        }
+        again.labels.push_back(result.surfaces[i].label);
+    }
+    result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
+    std::vector<ObjectSurface> rebuilt =
+        triangulate_with_repairs(stack, result.contours, result.fields, result.medial_axes, again);
+    for (std::size_t j = 0; j < redo.size(); ++j) {
+        const std::size_t i = redo[j];
+        const std::string first_try = unsnapped[i];
+        result.surfaces[i] = std::move(rebuilt[j]);
+        unsnapped[i] = quantize_with_repairs(stack, result.slice_spacing_px, options.quantize,
+                                             options.verify, result.surfaces[i]);
+        // note: the warning says how the retry ended (the quantize warning says so again when
+        // it failed too)
+        const std::string why = first_try.substr(first_try.find(": ") + 2);
+        report.warn("contours", "label " + std::to_string(result.surfaces[i].label),
+                    "could not be snapped to a grid with edge-midpoint contours (" + why +
+                        "); built again with contour vertices at pixel corners only: " +
+                        (unsnapped[i].empty() ? "snapped to the grid of step " +
+                                                    std::to_string(result.surfaces[i].grid_step) +
+                                                    " px, in the progressive model"
+                                              : "still " + unsnapped[i]));
+    }
+}
+
+}  // namespace strata
