@@ -88,10 +88,12 @@ Json json_number(double x) {
     return x;
 }
 
-Json json_numbers(const std::array<double, 16>& values) {
+/// JSON numbers, integers without ".0" (JSON bytes).
+template <class T, std::size_t N>
+Json json_numbers(const std::array<T, N>& values) {
     Json out = Json::array();
-    for (const double v : values) {
-        out.push_back(json_number(v));
+    for (const T v : values) {
+        out.push_back(json_number(double(v)));
     }
     return out;
 }
@@ -443,8 +445,8 @@ Json base_mesh_json(
     attributes[key(format::kPosition)] = add_accessor(json, {{"componentType", format::kFloat},
                                                              {"count", base.points},
                                                              {"type", "VEC3"},
-                                                             {"min", base.min},
-                                                             {"max", base.max}});
+                                                             {"min", json_numbers(base.min)},
+                                                             {"max", json_numbers(base.max)}});
     attributes[key(format::kNormal)] = add_accessor(
         json, {{"componentType", format::kFloat}, {"count", base.points}, {"type", "VEC3"}});
     if (base.ids.cluster_id >= 0) {  // absent when there is one root
@@ -686,8 +688,8 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
         {{"name", std::string(format::kPatientNodeName)},
          {"matrix", json_numbers(detail::kPatientToGltf)},
          {"children", Json::array({kStorageNode})},
-         {"extras",
-          {{"source", info.source}, {"spacing_mm", info.spacing_mm}, {"error_unit", "m"}}}});
+         // errors and spheres are in metres of the scene frame (the spec; JSON bytes)
+         {"extras", {{"source", info.source}, {"spacing_mm", json_numbers(info.spacing_mm)}}}});
     // every object shares one storage frame: its matrix is said once, on the node above them
     json["nodes"].push_back({{"name", std::string(format::kStorageNodeName)},
                              {"matrix", json_numbers(storage.matrix)},
@@ -718,10 +720,13 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     }
     json["bufferViews"] = Json::array();
     for (const BufferParts::View& view : buffer.views) {
-        json["bufferViews"].push_back(
-            {{"buffer", 0},
-             {"byteOffset", (view.in_chunks ? buffer.prefix.size() : 0) + view.offset},
-             {"byteLength", view.length}});
+        Json v = {{"buffer", 0}};
+        const std::size_t offset = (view.in_chunks ? buffer.prefix.size() : 0) + view.offset;
+        if (offset != 0) {  // 0 is the default (JSON bytes)
+            v["byteOffset"] = offset;
+        }
+        v["byteLength"] = view.length;
+        json["bufferViews"].push_back(std::move(v));
     }
     const std::string data = buffer.prefix + buffer.chunks;
     Json b = {{"byteLength", data.size()}};
