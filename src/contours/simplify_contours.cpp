@@ -148,6 +148,88 @@ WorstPoint range_deviation(std::span<const Vec2> points, std::uint32_t s, std::u
     return worst;
 }
 
+/// Signed area-like imbalance of the original points strictly between s and t (cyclic) about
+/// the chord from points[s] to points[t]: the sum of their signed distances from its line (left
+/// positive) times the chord length over their count + 1, i.e. about the area between the chain
+/// and the chord (left positive).
+double chord_imbalance(std::span<const Vec2> points, std::uint32_t s, std::uint32_t t) {
+    const std::size_t n = points.size();
+    const Vec2 a = points[s];
+    const Vec2 d = points[t] - a;
+    const double length = std::sqrt(dot(d, d));
+    if (!(length > 0.0)) {
+        return 0.0;
+    }
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (std::size_t k = s + 1 == n ? 0 : s + 1; k != t; k = k + 1 == n ? 0 : k + 1) {
+        const Vec2 w = points[k] - a;
+        sum += (d.x * w.y - d.y * w.x) / length;
+        ++count;
+    }
+    return sum * length / double(count + 1);
+}
+
+/// Least gain (px^2 of imbalance) worth moving a vertex: the staircase of a straight sloped
+/// boundary is balanced to about this already, and its vertices are best left in its middle.
+constexpr double kBalanceGainPx2 = 0.5;
+
+/// Moves each simplified vertex but the first (which anchors the chain) to one of the original
+/// points within `reach` of it along the chain, where that balances its two edges better: the
+/// original points on both sides of each chord, so that chords do not cut convex runs inward
+/// (Douglas-Peucker keeps every original point on one side of a convex run's chords). Every
+/// original point stays within `tolerance_px` of its edge.
+void balance_vertices(std::span<const Vec2> points,
+                      double tolerance_px,
+                      std::vector<KeptEdge>& edges,
+                      std::uint32_t reach) {
+    const auto n = static_cast<std::uint32_t>(points.size());
+    if (reach == 0 || edges.size() < 3 || n < 8) {
+        return;
+    }
+    for (std::size_t e = 1; e < edges.size(); ++e) {
+        KeptEdge& before = edges[e - 1];
+        KeptEdge& after = edges[e];
+        const std::uint32_t v = after.first;
+        double best = std::abs(chord_imbalance(points, before.first, v)) +
+                      std::abs(chord_imbalance(points, v, after.last));
+        std::uint32_t chosen = v;
+        WorstPoint chosen_before{before.deviation_px, kNone},
+            chosen_after{after.deviation_px, kNone};
+        for (std::uint32_t step = 1; step <= reach; ++step) {
+            for (const std::uint32_t w : {(v + n - step) % n, (v + step) % n}) {
+                // strictly between the neighbouring vertices; the last edge ends at 0, and
+                // edges stay sorted by first index
+                const std::uint32_t next = e + 1 < edges.size() ? edges[e + 1].first : n;
+                if (!(w > before.first && w < next)) {
+                    continue;
+                }
+                const double cost = std::abs(chord_imbalance(points, before.first, w)) +
+                                    std::abs(chord_imbalance(points, w, after.last));
+                if (!(cost < best - kBalanceGainPx2)) {
+                    continue;
+                }
+                const WorstPoint db = range_deviation(points, before.first, w);
+                const WorstPoint da = range_deviation(points, w, after.last);
+                if ((db.index != kNone && db.distance > tolerance_px) ||
+                    (da.index != kNone && da.distance > tolerance_px)) {
+                    continue;
+                }
+                best = cost;
+                chosen = w;
+                chosen_before = db;
+                chosen_after = da;
+            }
+        }
+        if (chosen != v) {
+            before.last = chosen;
+            after.first = chosen;
+            before.deviation_px = chosen_before.index == kNone ? 0.0 : chosen_before.distance;
+            after.deviation_px = chosen_after.index == kNone ? 0.0 : chosen_after.distance;
+        }
+    }
+}
+
 /// Douglas-Peucker of one open chain over the path hull, with an explicit task stack (the
 /// recursion is n deep in the worst case).
 class DouglasPeucker {
@@ -807,6 +889,7 @@ std::size_t simplify_contours(std::vector<Contour>& contours, const SimplifyOpti
     std::vector<std::vector<KeptEdge>> edges(contours.size());
     for (std::size_t c = 0; c < contours.size(); ++c) {
         edges[c] = simplifier.closed_edges(contours[c].points, options.tolerance_px);
+        balance_vertices(contours[c].points, options.tolerance_px, edges[c], options.balance_reach);
     }
     std::vector<std::size_t> order(contours.size());
     std::iota(order.begin(), order.end(), std::size_t{0});
