@@ -311,6 +311,7 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
     reconstruct_options.multires.cluster_triangles = options.cluster_triangles;
+    reconstruct_options.batch_labels = options.batch_labels;
     if (options.grid_step > 0.0) {
         // note: exactly this grid; a surface that does not snap to it fails the build
         reconstruct_options.quantize.step = options.grid_step;

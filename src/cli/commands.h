@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/types.h"
+#include "pipeline/reconstruct.h"
 #include "simplify/multires_dag.h"
 
 namespace strata::cli {
@@ -34,6 +35,8 @@ struct BuildOptions {
     std::string mesh_format = "ply";  ///< per-object mesh files: ply, obj or stl
     /// target triangles per multiresolution cluster (MultiresOptions' default, measured there)
     std::size_t cluster_triangles = MultiresOptions{}.cluster_triangles;
+    /// labels through the stages together (ReconstructOptions::batch_labels)
+    std::size_t batch_labels = ReconstructOptions{}.batch_labels;
     /// The progressive scene OUTPUT/model.<format>: "glb" (one file) or "gltf" (JSON, base
     /// buffer and one buffer file per level, for HTTP range requests).
     std::string model_format = "glb";

@@ -120,6 +120,11 @@ CLI::App* add_build_command(CLI::App& app, strata::cli::BuildOptions& build) {
                         "Write OUTPUT/scene.glb without Draco compression (plain float "
                         "accessors, for viewers without a Draco decoder)");
     build_cmd
+        ->add_option("--batch-labels", build.batch_labels,
+                     "Labels taken through the stages together; each batch's distance fields "
+                     "are freed before the next (0: all at once: more memory, same output)")
+        ->capture_default_str();
+    build_cmd
         ->add_option("--cluster-triangles", build.cluster_triangles,
                      "Target triangles per cluster of the multiresolution model")
         ->check(CLI::Range(std::size_t{16}, std::size_t{1} << 20))

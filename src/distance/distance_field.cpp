@@ -830,6 +830,10 @@ std::vector<SliceDistanceFields> compute_distance_fields(const SliceStack& stack
         slice_labels.erase(std::unique(slice_labels.begin(), slice_labels.end()),
                            slice_labels.end());
         for (const std::uint16_t label : slice_labels) {
+            if (!options.labels.empty() &&
+                !std::binary_search(options.labels.begin(), options.labels.end(), label)) {
+                continue;
+            }
             const std::size_t l = static_cast<std::size_t>(label_index[label]);
             const std::int64_t margin = margin_pixels(options.margin_px, slice, label);
             PixelBox window = boxes[k][l];

@@ -110,6 +110,9 @@ struct DistanceOptions {
                              ///< pixels); also the least outside_window_px
     unsigned threads = 0;    ///< worker threads, 0 = all cores; output identical for any count
     ProgressFn progress;     ///< called per slice (may be empty)
+    /// compute_distance_fields: the labels to compute, increasing; empty: every label with
+    /// contours. Each label's fields are the same whichever others are computed.
+    std::vector<std::uint16_t> labels;
 };
 
 /// Computes the distance field of `label` on slice `k` (see DistanceField) over the window

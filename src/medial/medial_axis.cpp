@@ -394,10 +394,14 @@ void trace_label(std::uint16_t label,
     }
 }
 
-std::vector<std::uint16_t> labels_of(const SliceContourSet& set) {
+/// The labels of `set` among `wanted` (increasing; empty: all).
+std::vector<std::uint16_t> labels_of(const SliceContourSet& set,
+                                     const std::vector<std::uint16_t>& wanted) {
     std::vector<std::uint16_t> labels;
     for (const SliceLabelRegions& r : set.labels) {
-        labels.push_back(r.label);
+        if (wanted.empty() || std::binary_search(wanted.begin(), wanted.end(), r.label)) {
+            labels.push_back(r.label);
+        }
     }
     return labels;
 }
@@ -412,8 +416,8 @@ MedialAxis extract_medial_axis(const SliceContourSet& lower,
                                const MedialOptions& options) {
     MedialAxis axis;
     axis.lower_slice = k;
-    const std::vector<std::uint16_t> lower_labels = labels_of(lower);
-    const std::vector<std::uint16_t> upper_labels = labels_of(upper);
+    const std::vector<std::uint16_t> lower_labels = labels_of(lower, options.labels);
+    const std::vector<std::uint16_t> upper_labels = labels_of(upper, options.labels);
     for (std::uint16_t label : lower_labels) {
         if (!std::binary_search(upper_labels.begin(), upper_labels.end(), label)) {
             continue;

@@ -53,6 +53,9 @@ struct MedialOptions {
     double jump_px = 1.5;
     unsigned threads = 0;  ///< worker threads, 0 = all cores; output identical for any count
     ProgressFn progress;   ///< called per slice pair (may be empty)
+    /// The labels whose curves and unmatched runs are extracted, increasing; empty: every label.
+    /// Each label's are the same whichever others are extracted (only their fields are read).
+    std::vector<std::uint16_t> labels;
 };
 
 /// Extracts the medial axes between slices k and k+1 (paper section 4.2): for every label

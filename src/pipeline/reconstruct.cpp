@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <iterator>
 #include <mutex>
 #include <numeric>
+#include <string_view>
+#include <tuple>
 #include <utility>
 
 #include "core/parallel.h"
@@ -20,10 +23,18 @@ namespace {
 class StageClock {
 public:
     explicit StageClock(std::vector<StageTiming>& timings) : timings_(timings) {}
+    /// Adds the time since the last mark to `stage` (a stage run once per batch of labels sums).
     void done(std::string stage) {
         const auto now = std::chrono::steady_clock::now();
-        timings_.push_back({std::move(stage), std::chrono::duration<double>(now - last_).count()});
+        const double seconds = std::chrono::duration<double>(now - last_).count();
         last_ = now;
+        for (StageTiming& t : timings_) {
+            if (t.stage == stage) {
+                t.seconds += seconds;
+                return;
+            }
+        }
+        timings_.push_back({std::move(stage), seconds});
     }
 
 private:
@@ -129,6 +140,27 @@ void release_fields(std::vector<SliceDistanceFields>& fields, std::uint16_t labe
     }
 }
 
+/// Appends the medial axes of one batch of labels to those of the labels before it: curves stay
+/// sorted by label (batches go up in label order), unmatched runs are sorted again, so the
+/// result is what one pass over all labels gives.
+void merge_medial_axes(std::vector<MedialAxis>& into, std::vector<MedialAxis>&& batch) {
+    if (into.empty()) {
+        into = std::move(batch);
+        return;
+    }
+    for (std::size_t k = 0; k < into.size(); ++k) {
+        MedialAxis& axis = into[k];
+        std::move(batch[k].curves.begin(), batch[k].curves.end(), std::back_inserter(axis.curves));
+        std::move(batch[k].unmatched.begin(), batch[k].unmatched.end(),
+                  std::back_inserter(axis.unmatched));
+        std::sort(axis.unmatched.begin(), axis.unmatched.end(),
+                  [](const UnmatchedRun& a, const UnmatchedRun& b) {
+                      return std::tie(a.on_upper, a.contour, a.first) <
+                             std::tie(b.on_upper, b.contour, b.first);
+                  });
+    }
+}
+
 }  // namespace
 
 Reconstruction reconstruct(const SliceStack& stack,
@@ -143,64 +175,181 @@ Reconstruction reconstruct(const SliceStack& stack,
     }
     result.contours = extract_contours(stack, contour_options);
     clock.done("contours");
+    result.slice_spacing_px = slice_spacing_px(stack);
 
-    DistanceOptions distance_options = options.distance;
-    distance_options.threads = options.threads;
-    if (!distance_options.progress) {
-        distance_options.progress = options.progress;
-    }
-    result.fields = compute_distance_fields(stack, result.contours, distance_options);
-    clock.done("distance");
-
-    MedialOptions medial_options = options.medial;
-    medial_options.threads = options.threads;
-    if (!medial_options.progress) {
-        medial_options.progress = options.progress;
-    }
-    result.medial_axes = extract_medial_axes(result.contours, result.fields, medial_options);
-    clock.done("medial");
-
-    TriangulateOptions triangulate_options = options.triangulate;
-    triangulate_options.threads = options.threads;
-    triangulate_options.slice_spacing_px = result.slice_spacing_px = slice_spacing_px(stack);
-    if (!triangulate_options.progress) {
-        triangulate_options.progress = options.progress;
-    }
-    result.surfaces = triangulate_with_repairs(stack, result.contours, result.fields,
-                                               result.medial_axes, triangulate_options);
-    clock.done("triangulate");
-    if (options.quantize.enabled || options.verify) {
-        std::vector<std::string> unsnapped(result.surfaces.size());
-        std::size_t checked = 0;
-        std::mutex checked_mutex;
-        const char* stage = options.quantize.enabled ? "quantize+verify labels" : "verify labels";
-        parallel_for(result.surfaces.size(), options.threads, [&](std::size_t i) {
-            unsnapped[i] = quantize_with_repairs(stack, result.slice_spacing_px, options.quantize,
-                                                 options.verify, result.surfaces[i]);
-            if (options.progress) {
-                const std::lock_guard<std::mutex> lock(checked_mutex);
-                options.progress(stage, ++checked, result.surfaces.size());
-            }
-        });
-        // Contour vertices at pixel-edge midpoints can leave two surface vertices closer than
-        // the finest grid; such a label is built again from contours simplified at pixel corners.
-        std::vector<std::size_t> redo;
-        for (std::size_t i = 0; i < unsnapped.size(); ++i) {
-            if (options.quantize.enabled && contour_options.edge_midpoints &&
-                result.surfaces[i].grid_step == 0.0 && !unsnapped[i].empty()) {
-                redo.push_back(i);
-            }
+    // The labels go through the stages after the contours in batches of options.batch_labels
+    // (all at once when the fields are kept): a batch's distance fields and medial axes are
+    // freed before the next batch starts, so they take the memory of one batch, not of all
+    // labels. Every stage works on each label alone: the output is the same for any batch size.
+    const std::vector<std::uint16_t> labels = options.triangulate.labels.empty()
+                                                  ? contour_labels(result.contours)
+                                                  : options.triangulate.labels;
+    const std::size_t batch_size = options.keep_fields || options.batch_labels == 0
+                                       ? std::max<std::size_t>(labels.size(), 1)
+                                       : options.batch_labels;
+    const char* verify_stage = options.quantize.enabled ? "quantize+verify" : "verify";
+    std::vector<std::string> unsnapped(labels.size());
+    std::vector<Warning> retried;  // the corner rebuilds' warnings, in label order
+    std::vector<std::string> kept(labels.size());
+    std::size_t checked = 0;
+    std::size_t simplified = 0;
+    std::mutex progress_mutex;
+    for (std::size_t first = 0; first < labels.size(); first += batch_size) {
+        const std::vector<std::uint16_t> batch(
+            labels.begin() + static_cast<std::ptrdiff_t>(first),
+            labels.begin() +
+                static_cast<std::ptrdiff_t>(std::min(first + batch_size, labels.size())));
+        std::string prefix;
+        if (batch.size() < labels.size()) {
+            prefix = "labels " + std::to_string(first + 1) + "-" +
+                     std::to_string(first + batch.size()) + " of " + std::to_string(labels.size()) +
+                     ": ";
         }
-        rebuild_at_corners(stack,
-                           {contour_options.tolerance_px, medial_options, triangulate_options,
-                            options.quantize, options.verify},
-                           redo, result, unsnapped, report);
-        clock.done(options.quantize.enabled ? "quantize+verify" : "verify");
-        for (std::size_t i = 0; i < unsnapped.size(); ++i) {
-            if (!unsnapped[i].empty()) {
-                report.warn("quantize", "label " + std::to_string(result.surfaces[i].label),
-                            unsnapped[i]);
+        ProgressFn batch_progress;
+        if (options.progress) {
+            batch_progress = [&options, prefix](std::string_view what, std::size_t done,
+                                                std::size_t total) {
+                options.progress(prefix + std::string(what), done, total);
+            };
+        }
+
+        DistanceOptions distance_options = options.distance;
+        distance_options.threads = options.threads;
+        distance_options.labels = batch;
+        if (!distance_options.progress) {
+            distance_options.progress = batch_progress;
+        }
+        std::vector<SliceDistanceFields> fields =
+            compute_distance_fields(stack, result.contours, distance_options);
+        clock.done("distance");
+
+        MedialOptions medial_options = options.medial;
+        medial_options.threads = options.threads;
+        medial_options.labels = batch;
+        if (!medial_options.progress) {
+            medial_options.progress = batch_progress;
+        }
+        std::vector<MedialAxis> axes = extract_medial_axes(result.contours, fields, medial_options);
+        clock.done("medial");
+
+        TriangulateOptions triangulate_options = options.triangulate;
+        triangulate_options.threads = options.threads;
+        triangulate_options.slice_spacing_px = result.slice_spacing_px;
+        triangulate_options.labels = batch;
+        if (!triangulate_options.progress) {
+            triangulate_options.progress = batch_progress;
+        }
+        std::vector<ObjectSurface> surfaces =
+            triangulate_with_repairs(stack, result.contours, fields, axes, triangulate_options);
+        clock.done("triangulate");
+        if (options.quantize.enabled || options.verify) {
+            const std::string stage = std::string(verify_stage) + " labels";
+            parallel_for(surfaces.size(), options.threads, [&](std::size_t i) {
+                unsnapped[first + i] = quantize_with_repairs(
+                    stack, result.slice_spacing_px, options.quantize, options.verify, surfaces[i]);
+                if (options.progress) {
+                    const std::lock_guard<std::mutex> lock(progress_mutex);
+                    options.progress(stage, ++checked, labels.size());
+                }
+            });
+            // Contour vertices at pixel-edge midpoints can leave two surface vertices closer
+            // than the finest grid; such a label is built again from contours simplified at
+            // pixel corners.
+            std::vector<std::size_t> redo;
+            for (std::size_t i = 0; i < surfaces.size(); ++i) {
+                if (options.quantize.enabled && contour_options.edge_midpoints &&
+                    surfaces[i].grid_step == 0.0 && !unsnapped[first + i].empty()) {
+                    redo.push_back(i);
+                }
             }
+            if (!redo.empty()) {
+                // note: the rebuild reads and updates the contours, this batch's fields, axes
+                // and surfaces; its warnings wait to be reported in label order
+                Reconstruction part;
+                part.contours = std::move(result.contours);
+                part.fields = std::move(fields);
+                part.medial_axes = std::move(axes);
+                part.surfaces = std::move(surfaces);
+                part.slice_spacing_px = result.slice_spacing_px;
+                std::vector<std::string> part_unsnapped(
+                    unsnapped.begin() + static_cast<std::ptrdiff_t>(first),
+                    unsnapped.begin() + static_cast<std::ptrdiff_t>(first + batch.size()));
+                Report part_report;
+                rebuild_at_corners(stack,
+                                   {contour_options.tolerance_px, medial_options,
+                                    triangulate_options, options.quantize, options.verify},
+                                   redo, part, part_unsnapped, part_report);
+                result.contours = std::move(part.contours);
+                fields = std::move(part.fields);
+                axes = std::move(part.medial_axes);
+                surfaces = std::move(part.surfaces);
+                std::copy(part_unsnapped.begin(), part_unsnapped.end(),
+                          unsnapped.begin() + static_cast<std::ptrdiff_t>(first));
+                std::move(part_report.warnings.begin(), part_report.warnings.end(),
+                          std::back_inserter(retried));
+            }
+            clock.done(verify_stage);
+        }
+        std::vector<MultiresMesh> models;
+        if (options.simplify) {
+            models.resize(surfaces.size());
+            // note: the largest surfaces start first; each also spreads its groups over the
+            // threads.
+            std::vector<std::size_t> order(surfaces.size());
+            std::iota(order.begin(), order.end(), std::size_t{0});
+            std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+                return surfaces[a].mesh.triangles.size() > surfaces[b].mesh.triangles.size();
+            });
+            parallel_for(order.size(), options.threads, [&](std::size_t n) {
+                const std::size_t i = order[n];
+                const ObjectSurface& surface = surfaces[i];
+                const SliceErrorMeter meter(result.contours, fields, surface.label,
+                                            result.slice_spacing_px);
+                MultiresOptions label_options = options.multires;
+                label_options.progress = nullptr;
+                label_options.threads = options.threads;
+                label_options.grid_step = surface.grid_step;
+                if (surface.verification.done && !surface.verification.ok()) {
+                    label_options.max_levels = 0;  // note: collapses assume a closed manifold
+                    kept[first + i] = "surface failed verification; kept at full resolution only";
+                }
+                models[i] = build_multires_mesh(
+                    surface.mesh, meter, surface.contour_deviation_px + surface.grid_shift_px,
+                    label_options);
+                models[i].grid_step = surface.grid_step;
+                if (!options.keep_fields) {
+                    release_fields(fields, surface.label);
+                }
+                if (options.progress) {
+                    const std::lock_guard<std::mutex> lock(progress_mutex);
+                    options.progress("simplify labels", ++simplified, labels.size());
+                }
+            });
+            clock.done("simplify");
+        }
+        std::move(surfaces.begin(), surfaces.end(), std::back_inserter(result.surfaces));
+        std::move(models.begin(), models.end(), std::back_inserter(result.models));
+        merge_medial_axes(result.medial_axes, std::move(axes));
+        if (result.fields.empty()) {
+            // note: one batch when the fields are kept; else they are released, only the
+            // slices' empty sets stay
+            result.fields = std::move(fields);
+        }
+    }
+    if (result.fields.empty()) {
+        result.fields.resize(stack.depth);
+    }
+    if (result.medial_axes.empty() && stack.depth > 1) {
+        result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
+    }
+
+    // Warnings in stage order, as one pass over all labels gives them.
+    for (Warning& w : retried) {
+        report.warn(std::move(w.stage), std::move(w.where), std::move(w.message));
+    }
+    for (std::size_t i = 0; i < labels.size(); ++i) {
+        if (!unsnapped[i].empty()) {
+            report.warn("quantize", "label " + std::to_string(labels[i]), unsnapped[i]);
         }
     }
     if (options.verify) {
@@ -211,50 +360,9 @@ Reconstruction reconstruct(const SliceStack& stack,
             }
         }
     }
-    if (options.simplify) {
-        result.models.resize(result.surfaces.size());
-        MultiresOptions multires = options.multires;
-        std::vector<std::string> kept(result.surfaces.size());
-        std::size_t done = 0;
-        std::mutex progress_mutex;
-        // note: the largest surfaces start first; each also spreads its groups over the threads.
-        std::vector<std::size_t> order(result.surfaces.size());
-        std::iota(order.begin(), order.end(), std::size_t{0});
-        std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-            return result.surfaces[a].mesh.triangles.size() >
-                   result.surfaces[b].mesh.triangles.size();
-        });
-        parallel_for(order.size(), options.threads, [&](std::size_t n) {
-            const std::size_t i = order[n];
-            const ObjectSurface& surface = result.surfaces[i];
-            const SliceErrorMeter meter(result.contours, result.fields, surface.label,
-                                        result.slice_spacing_px);
-            MultiresOptions label_options = multires;
-            label_options.progress = nullptr;
-            label_options.threads = options.threads;
-            label_options.grid_step = surface.grid_step;
-            if (surface.verification.done && !surface.verification.ok()) {
-                label_options.max_levels = 0;  // note: collapses assume a closed manifold
-                kept[i] = "surface failed verification; kept at full resolution only";
-            }
-            result.models[i] = build_multires_mesh(
-                surface.mesh, meter, surface.contour_deviation_px + surface.grid_shift_px,
-                label_options);
-            result.models[i].grid_step = surface.grid_step;
-            if (!options.keep_fields) {
-                release_fields(result.fields, surface.label);
-            }
-            if (options.progress) {
-                const std::lock_guard<std::mutex> lock(progress_mutex);
-                options.progress("simplify labels", ++done, result.surfaces.size());
-            }
-        });
-        clock.done("simplify");
-        for (std::size_t i = 0; i < kept.size(); ++i) {
-            if (!kept[i].empty()) {
-                report.warn("simplify", "label " + std::to_string(result.surfaces[i].label),
-                            kept[i]);
-            }
+    for (std::size_t i = 0; i < kept.size(); ++i) {
+        if (!kept[i].empty()) {
+            report.warn("simplify", "label " + std::to_string(labels[i]), kept[i]);
         }
     }
     for (const ObjectSurface& surface : result.surfaces) {

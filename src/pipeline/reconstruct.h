@@ -38,6 +38,11 @@ struct ReconstructOptions {
     /// as its multiresolution model is built (nothing after needs them but debug pictures), so
     /// the memory of the labels done goes to the export.
     bool keep_fields = true;
+    /// Labels taken through the stages after the contours together (distance fields, medial
+    /// axes, triangulation, verification, simplification), in increasing label order; each
+    /// batch's fields and axes are freed before the next starts, so memory holds one batch's
+    /// work. 0 or keep_fields: all labels in one batch. The output is the same for any size.
+    std::size_t batch_labels = 8;
     unsigned threads = 0;  ///< worker threads of every stage, 0 = all cores
     ProgressFn progress;   ///< stage progress (may be empty)
 };
