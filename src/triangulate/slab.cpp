@@ -83,7 +83,32 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
     steiner_id_.clear();
     steiner_xy_.clear();
 
-    // The medial axis: the paper's correspondence curve, at t = 1/2 between the slices.
+    const std::vector<Point> medial = medial_points(cdt, k);
+    if (!medial.empty()) {
+        insert_steiners(cdt, medial, k, owners, "medial points");
+    }
+    insert_curvature_points(cdt, k, owners, medial);
+    const bool valid = refine_slab(cdt, k, owners);
+    std::map<const void*, std::array<std::uint32_t, 3>> emitted;
+    const bool missing_face = emit_faces(cdt, k, emitted);
+    const bool missing_vertical = emit_vertical_faces(cdt, k, emitted);
+    if ((missing_face || missing_vertical) && valid) {
+        ++surface_.failed_slabs;
+        issue(k, "a surface vertex has no position on the slice it lies on");
+    }
+    ++surface_.slabs;
+}
+
+bool LabelSurface::in_surface_at(const Cdt& cdt, const Point& p, std::uint32_t k) const {
+    Cdt::Locate_type type;
+    int li = 0;
+    const FaceHandle f = cdt.locate(p, type, li);
+    return type == Cdt::FACE && in_surface(f, k);
+}
+
+/// The medial axis: the paper's correspondence curve, at t = 1/2 between the slices (the
+/// thinned points of slab k's curves of this label that lie inside the surface's domain).
+std::vector<Point> LabelSurface::medial_points(const Cdt& cdt, std::uint32_t k) const {
     std::vector<Point> medial;
     if (k < medial_axes_.size()) {
         for (const MedialCurve& curve : medial_axes_[k].curves) {
@@ -96,18 +121,19 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
                     continue;
                 }
                 const Point p = to_point(curve.points[i].position);
-                Cdt::Locate_type type;
-                int li = 0;
-                const FaceHandle f = cdt.locate(p, type, li);
-                if (type == Cdt::FACE && in_surface(f, k)) {
+                if (in_surface_at(cdt, p, k)) {
                     medial.push_back(p);
                 }
             }
         }
     }
-    if (!medial.empty()) {
-        insert_steiners(cdt, medial, k, owners, "medial points");
-    }
+    return medial;
+}
+
+void LabelSurface::insert_curvature_points(Cdt& cdt,
+                                           std::uint32_t k,
+                                           const std::map<EdgeKey, EdgeOwner>& owners,
+                                           const std::vector<Point>& medial) {
     // Where the cubic height bends away from the straight faces between a medial point and the
     // contours, a vertex half way to each contour's closest point follows it.
     if (options_.cubic_height && options_.curvature_tolerance_px > 0.0 && level_z_ == nullptr) {
@@ -126,10 +152,7 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
                 if (std::abs(height_t(q, k) - straight) * d < options_.curvature_tolerance_px) {
                     continue;
                 }
-                Cdt::Locate_type type;
-                int li = 0;
-                const FaceHandle f = cdt.locate(q, type, li);
-                if (type == Cdt::FACE && in_surface(f, k)) {
+                if (in_surface_at(cdt, q, k)) {
                     bends.push_back(q);
                 }
             }
@@ -140,8 +163,13 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
             insert_steiners(cdt, bends, k, owners, "curvature points");
         }
     }
+}
 
-    // Refine until every surface face has its levels and no inner edge lies in a slice plane.
+/// Refines until every surface face has its levels and no inner edge lies in a slice plane;
+/// returns false (reported) when that did not happen in options.refine_rounds rounds.
+bool LabelSurface::refine_slab(Cdt& cdt,
+                               std::uint32_t k,
+                               const std::map<EdgeKey, EdgeOwner>& owners) {
     bool valid = false;
     for (unsigned round = 0; round <= options_.refine_rounds; ++round) {
         std::vector<Point> refine;
@@ -197,8 +225,14 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
         issue(k, "refinement did not converge in " + std::to_string(options_.refine_rounds) +
                      " rounds");
     }
+    return valid;
+}
 
-    // Output.
+/// The slab's triangles over its surface faces, each corner at its level; `emitted` receives
+/// each face's triangle. Returns whether a corner had no vertex.
+bool LabelSurface::emit_faces(Cdt& cdt,
+                              std::uint32_t k,
+                              std::map<const void*, std::array<std::uint32_t, 3>>& emitted) {
     const double z0 = slice_z(k);
     const double d = slice_z(k + 1) - z0;
     auto corner_id = [&](FaceHandle f, int i) -> std::int32_t {
@@ -223,7 +257,6 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
     };
     std::vector<std::array<std::uint32_t, 3>>& out = surface_.mesh.triangles;
     bool missing = false;
-    std::map<const void*, std::array<std::uint32_t, 3>> emitted;
     for (FaceHandle f : cdt.finite_face_handles()) {
         if (!in_surface(f, k)) {
             continue;
@@ -241,6 +274,14 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
         out.push_back(t);
         emitted.emplace(&*f, t);
     }
+    return missing;
+}
+
+/// Returns whether a vertex was missing.
+bool LabelSurface::emit_vertical_faces(
+    Cdt& cdt, std::uint32_t k, const std::map<const void*, std::array<std::uint32_t, 3>>& emitted) {
+    std::vector<std::array<std::uint32_t, 3>>& out = surface_.mesh.triangles;
+    bool missing = false;
     // Vertical triangles where a wedge switches from z_k to z_k+1, and vertical walls where
     // both contours run along the same edge with the inside on the same side.
     for (FaceHandle f : cdt.finite_face_handles()) {
@@ -312,11 +353,7 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
             out.push_back({pl, qh, ph});
         }
     }
-    if (missing && valid) {
-        ++surface_.failed_slabs;
-        issue(k, "a surface vertex has no position on the slice it lies on");
-    }
-    ++surface_.slabs;
+    return missing;
 }
 
 }  // namespace strata::detail

@@ -188,6 +188,10 @@ private:
     std::int64_t ny_ = 0;
 };
 
+/// Background links of one slab, each (slice k components, slice k+1 components), sorted.
+using BackgroundLinks =
+    std::vector<std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>>;
+
 class LabelSurface {
 public:
     LabelSurface(const SliceContours& contours,
@@ -214,6 +218,24 @@ private:
 
     // --- per slab ------------------------------------------------------------------------------
     void triangulate_slab(std::uint32_t k);
+    /// Whether p lies inside a face of the surface's domain of slab k (not on an edge).
+    bool in_surface_at(const Cdt& cdt, const Point& p, std::uint32_t k) const;
+    std::vector<Point> medial_points(const Cdt& cdt, std::uint32_t k) const;
+    /// Where the cubic height bends away from the straight faces between a medial point and
+    /// the contours, a vertex half way to each contour's closest point follows it.
+    void insert_curvature_points(Cdt& cdt,
+                                 std::uint32_t k,
+                                 const std::map<EdgeKey, EdgeOwner>& owners,
+                                 const std::vector<Point>& medial);
+    bool refine_slab(Cdt& cdt, std::uint32_t k, const std::map<EdgeKey, EdgeOwner>& owners);
+    bool emit_faces(Cdt& cdt,
+                    std::uint32_t k,
+                    std::map<const void*, std::array<std::uint32_t, 3>>& emitted);
+    /// Vertical triangles where a wedge switches from z_k to z_k+1, and vertical walls where
+    /// both contours run along the same edge with the inside on the same side.
+    bool emit_vertical_faces(Cdt& cdt,
+                             std::uint32_t k,
+                             const std::map<const void*, std::array<std::uint32_t, 3>>& emitted);
     /// Inserts the contour rings of `slice` (only those of region `only_region` when it is not
     /// negative) as vertices and constraints, recording which contour owns each edge.
     void insert_rings(Cdt& cdt,
@@ -235,6 +257,10 @@ private:
                          const std::map<EdgeKey, EdgeOwner>& owners,
                          const char* what);
     void check_overlap_topology(Cdt& cdt, std::uint32_t k);
+    bool vertical_at(const Cdt& cdt,
+                     VertexHandle v,
+                     std::uint32_t k,
+                     std::vector<FaceHandle>& around) const;
     bool in_lower(const FaceInfo& f, std::uint32_t k) const;
     bool in_upper(const FaceInfo& f, std::uint32_t k) const;
     bool in_surface(FaceHandle f, std::uint32_t k) const;
@@ -312,8 +338,7 @@ private:
     /// Per slab: number of overlap pieces between (lower region, upper region).
     std::vector<std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t>> link_pieces_;
     /// Per slab: background links, each (slice k components, slice k+1 components), sorted.
-    std::vector<std::vector<std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>>>
-        background_links_;
+    std::vector<BackgroundLinks> background_links_;
     /// Per slice, per local contour, per simplified edge: extra points on it.
     std::vector<std::vector<std::vector<std::vector<Point>>>> splits_;
     /// Per slice, per local contour.
