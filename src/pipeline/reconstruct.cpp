@@ -161,195 +161,236 @@ void merge_medial_axes(std::vector<MedialAxis>& into, std::vector<MedialAxis>&& 
     }
 }
 
-}  // namespace
+/// What the batches of labels share: the per-label messages, in label order, and the progress
+/// counters.
+struct LabelRun {
+    std::vector<std::uint16_t> labels;
+    std::vector<std::string> unsnapped;
+    std::vector<Warning> retried;  // the corner rebuilds' warnings, in label order
+    std::vector<std::string> kept;
+    std::size_t checked = 0;
+    std::size_t simplified = 0;
+    std::mutex progress_mutex;
+};
 
-Reconstruction reconstruct(const SliceStack& stack,
-                           const ReconstructOptions& options,
-                           Report& report) {
-    Reconstruction result;
-    StageClock clock(result.timings);
+/// One batch of labels and what the stages after the contours make of it.
+struct LabelBatch {
+    std::size_t first = 0;  ///< index of the batch's first label in LabelRun::labels
+    std::vector<std::uint16_t> labels;
+    ProgressFn progress;
+    MedialOptions medial_options;
+    TriangulateOptions triangulate_options;
+    std::vector<SliceDistanceFields> fields;
+    std::vector<MedialAxis> axes;
+    std::vector<ObjectSurface> surfaces;
+    std::vector<MultiresMesh> models;
+};
+
+ContourOptions contour_options_of(const ReconstructOptions& options) {
     ContourOptions contour_options = options.contours;
     contour_options.threads = options.threads;
     if (!contour_options.progress) {
         contour_options.progress = options.progress;
     }
-    result.contours = extract_contours(stack, contour_options);
-    clock.done("contours");
-    result.slice_spacing_px = slice_spacing_px(stack);
+    return contour_options;
+}
 
-    // The labels go through the stages after the contours in batches of options.batch_labels
-    // (all at once when the fields are kept): a batch's distance fields and medial axes are
-    // freed before the next batch starts, so they take the memory of one batch, not of all
-    // labels. Every stage works on each label alone: the output is the same for any batch size.
-    const std::vector<std::uint16_t> labels = options.triangulate.labels.empty()
-                                                  ? contour_labels(result.contours)
-                                                  : options.triangulate.labels;
-    const std::size_t batch_size = options.keep_fields || options.batch_labels == 0
-                                       ? std::max<std::size_t>(labels.size(), 1)
-                                       : options.batch_labels;
-    const char* verify_stage = options.quantize.enabled ? "quantize+verify" : "verify";
-    std::vector<std::string> unsnapped(labels.size());
-    std::vector<Warning> retried;  // the corner rebuilds' warnings, in label order
-    std::vector<std::string> kept(labels.size());
-    std::size_t checked = 0;
-    std::size_t simplified = 0;
-    std::mutex progress_mutex;
-    for (std::size_t first = 0; first < labels.size(); first += batch_size) {
-        const std::vector<std::uint16_t> batch(
-            labels.begin() + static_cast<std::ptrdiff_t>(first),
-            labels.begin() +
-                static_cast<std::ptrdiff_t>(std::min(first + batch_size, labels.size())));
-        std::string prefix;
-        if (batch.size() < labels.size()) {
-            prefix = "labels " + std::to_string(first + 1) + "-" +
-                     std::to_string(first + batch.size()) + " of " + std::to_string(labels.size()) +
-                     ": ";
-        }
-        ProgressFn batch_progress;
+/// The labels from `first` on, at most `batch_size`, with their progress reports prefixed by
+/// the batch's range when it is not all labels.
+LabelBatch start_batch(const ReconstructOptions& options,
+                       const std::vector<std::uint16_t>& labels,
+                       std::size_t first,
+                       std::size_t batch_size) {
+    LabelBatch batch;
+    batch.first = first;
+    batch.labels.assign(
+        labels.begin() + static_cast<std::ptrdiff_t>(first),
+        labels.begin() + static_cast<std::ptrdiff_t>(std::min(first + batch_size, labels.size())));
+    std::string prefix;
+    if (batch.labels.size() < labels.size()) {
+        prefix = "labels " + std::to_string(first + 1) + "-" +
+                 std::to_string(first + batch.labels.size()) + " of " +
+                 std::to_string(labels.size()) + ": ";
+    }
+    if (options.progress) {
+        batch.progress = [&options, prefix](std::string_view what, std::size_t done,
+                                            std::size_t total) {
+            options.progress(prefix + std::string(what), done, total);
+        };
+    }
+    return batch;
+}
+
+/// Distance fields, medial axes and surfaces of the batch's labels.
+void triangulate_batch(const SliceStack& stack,
+                       const ReconstructOptions& options,
+                       const Reconstruction& result,
+                       StageClock& clock,
+                       LabelBatch& batch) {
+    DistanceOptions distance_options = options.distance;
+    distance_options.threads = options.threads;
+    distance_options.labels = batch.labels;
+    if (!distance_options.progress) {
+        distance_options.progress = batch.progress;
+    }
+    batch.fields = compute_distance_fields(stack, result.contours, distance_options);
+    clock.done("distance");
+
+    batch.medial_options = options.medial;
+    batch.medial_options.threads = options.threads;
+    batch.medial_options.labels = batch.labels;
+    if (!batch.medial_options.progress) {
+        batch.medial_options.progress = batch.progress;
+    }
+    batch.axes = extract_medial_axes(result.contours, batch.fields, batch.medial_options);
+    clock.done("medial");
+
+    batch.triangulate_options = options.triangulate;
+    batch.triangulate_options.threads = options.threads;
+    batch.triangulate_options.slice_spacing_px = result.slice_spacing_px;
+    batch.triangulate_options.labels = batch.labels;
+    if (!batch.triangulate_options.progress) {
+        batch.triangulate_options.progress = batch.progress;
+    }
+    batch.surfaces = triangulate_with_repairs(stack, result.contours, batch.fields, batch.axes,
+                                              batch.triangulate_options);
+    clock.done("triangulate");
+}
+
+/// Contour vertices at pixel-edge midpoints can leave two surface vertices closer than the
+/// finest grid; such a label (in `redo`) is built again from contours simplified at pixel
+/// corners.
+void rebuild_batch_at_corners(const SliceStack& stack,
+                              const ReconstructOptions& options,
+                              const ContourOptions& contour_options,
+                              const std::vector<std::size_t>& redo,
+                              Reconstruction& result,
+                              LabelRun& run,
+                              LabelBatch& batch) {
+    // note: the rebuild reads and updates the contours, this batch's fields, axes
+    // and surfaces; its warnings wait to be reported in label order
+    Reconstruction part;
+    part.contours = std::move(result.contours);
+    part.fields = std::move(batch.fields);
+    part.medial_axes = std::move(batch.axes);
+    part.surfaces = std::move(batch.surfaces);
+    part.slice_spacing_px = result.slice_spacing_px;
+    std::vector<std::string> part_unsnapped(
+        run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first),
+        run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first + batch.labels.size()));
+    Report part_report;
+    rebuild_at_corners(stack,
+                       {contour_options.tolerance_px, batch.medial_options,
+                        batch.triangulate_options, options.quantize, options.verify},
+                       redo, part, part_unsnapped, part_report);
+    result.contours = std::move(part.contours);
+    batch.fields = std::move(part.fields);
+    batch.axes = std::move(part.medial_axes);
+    batch.surfaces = std::move(part.surfaces);
+    std::copy(part_unsnapped.begin(), part_unsnapped.end(),
+              run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first));
+    std::move(part_report.warnings.begin(), part_report.warnings.end(),
+              std::back_inserter(run.retried));
+}
+
+/// Quantizes and/or verifies the batch's surfaces, rebuilding at pixel corners those that
+/// stayed unsnapped.
+void verify_batch(const SliceStack& stack,
+                  const ReconstructOptions& options,
+                  const ContourOptions& contour_options,
+                  const char* verify_stage,
+                  Reconstruction& result,
+                  LabelRun& run,
+                  LabelBatch& batch) {
+    const std::string stage = std::string(verify_stage) + " labels";
+    std::vector<ObjectSurface>& surfaces = batch.surfaces;
+    parallel_for(surfaces.size(), options.threads, [&](std::size_t i) {
+        run.unsnapped[batch.first + i] = quantize_with_repairs(
+            stack, result.slice_spacing_px, options.quantize, options.verify, surfaces[i]);
         if (options.progress) {
-            batch_progress = [&options, prefix](std::string_view what, std::size_t done,
-                                                std::size_t total) {
-                options.progress(prefix + std::string(what), done, total);
-            };
+            const std::lock_guard<std::mutex> lock(run.progress_mutex);
+            options.progress(stage, ++run.checked, run.labels.size());
         }
-
-        DistanceOptions distance_options = options.distance;
-        distance_options.threads = options.threads;
-        distance_options.labels = batch;
-        if (!distance_options.progress) {
-            distance_options.progress = batch_progress;
-        }
-        std::vector<SliceDistanceFields> fields =
-            compute_distance_fields(stack, result.contours, distance_options);
-        clock.done("distance");
-
-        MedialOptions medial_options = options.medial;
-        medial_options.threads = options.threads;
-        medial_options.labels = batch;
-        if (!medial_options.progress) {
-            medial_options.progress = batch_progress;
-        }
-        std::vector<MedialAxis> axes = extract_medial_axes(result.contours, fields, medial_options);
-        clock.done("medial");
-
-        TriangulateOptions triangulate_options = options.triangulate;
-        triangulate_options.threads = options.threads;
-        triangulate_options.slice_spacing_px = result.slice_spacing_px;
-        triangulate_options.labels = batch;
-        if (!triangulate_options.progress) {
-            triangulate_options.progress = batch_progress;
-        }
-        std::vector<ObjectSurface> surfaces =
-            triangulate_with_repairs(stack, result.contours, fields, axes, triangulate_options);
-        clock.done("triangulate");
-        if (options.quantize.enabled || options.verify) {
-            const std::string stage = std::string(verify_stage) + " labels";
-            parallel_for(surfaces.size(), options.threads, [&](std::size_t i) {
-                unsnapped[first + i] = quantize_with_repairs(
-                    stack, result.slice_spacing_px, options.quantize, options.verify, surfaces[i]);
-                if (options.progress) {
-                    const std::lock_guard<std::mutex> lock(progress_mutex);
-                    options.progress(stage, ++checked, labels.size());
-                }
-            });
-            // Contour vertices at pixel-edge midpoints can leave two surface vertices closer
-            // than the finest grid; such a label is built again from contours simplified at
-            // pixel corners.
-            std::vector<std::size_t> redo;
-            for (std::size_t i = 0; i < surfaces.size(); ++i) {
-                if (options.quantize.enabled && contour_options.edge_midpoints &&
-                    surfaces[i].grid_step == 0.0 && !unsnapped[first + i].empty()) {
-                    redo.push_back(i);
-                }
-            }
-            if (!redo.empty()) {
-                // note: the rebuild reads and updates the contours, this batch's fields, axes
-                // and surfaces; its warnings wait to be reported in label order
-                Reconstruction part;
-                part.contours = std::move(result.contours);
-                part.fields = std::move(fields);
-                part.medial_axes = std::move(axes);
-                part.surfaces = std::move(surfaces);
-                part.slice_spacing_px = result.slice_spacing_px;
-                std::vector<std::string> part_unsnapped(
-                    unsnapped.begin() + static_cast<std::ptrdiff_t>(first),
-                    unsnapped.begin() + static_cast<std::ptrdiff_t>(first + batch.size()));
-                Report part_report;
-                rebuild_at_corners(stack,
-                                   {contour_options.tolerance_px, medial_options,
-                                    triangulate_options, options.quantize, options.verify},
-                                   redo, part, part_unsnapped, part_report);
-                result.contours = std::move(part.contours);
-                fields = std::move(part.fields);
-                axes = std::move(part.medial_axes);
-                surfaces = std::move(part.surfaces);
-                std::copy(part_unsnapped.begin(), part_unsnapped.end(),
-                          unsnapped.begin() + static_cast<std::ptrdiff_t>(first));
-                std::move(part_report.warnings.begin(), part_report.warnings.end(),
-                          std::back_inserter(retried));
-            }
-            clock.done(verify_stage);
-        }
-        std::vector<MultiresMesh> models;
-        if (options.simplify) {
-            models.resize(surfaces.size());
-            // note: the largest surfaces start first; each also spreads its groups over the
-            // threads.
-            std::vector<std::size_t> order(surfaces.size());
-            std::iota(order.begin(), order.end(), std::size_t{0});
-            std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-                return surfaces[a].mesh.triangles.size() > surfaces[b].mesh.triangles.size();
-            });
-            parallel_for(order.size(), options.threads, [&](std::size_t n) {
-                const std::size_t i = order[n];
-                const ObjectSurface& surface = surfaces[i];
-                const SliceErrorMeter meter(result.contours, fields, surface.label,
-                                            result.slice_spacing_px);
-                MultiresOptions label_options = options.multires;
-                label_options.progress = nullptr;
-                label_options.threads = options.threads;
-                label_options.grid_step = surface.grid_step;
-                if (surface.verification.done && !surface.verification.ok()) {
-                    label_options.max_levels = 0;  // note: collapses assume a closed manifold
-                    kept[first + i] = "surface failed verification; kept at full resolution only";
-                }
-                models[i] = build_multires_mesh(
-                    surface.mesh, meter, surface.contour_deviation_px + surface.grid_shift_px,
-                    label_options);
-                models[i].grid_step = surface.grid_step;
-                if (!options.keep_fields) {
-                    release_fields(fields, surface.label);
-                }
-                if (options.progress) {
-                    const std::lock_guard<std::mutex> lock(progress_mutex);
-                    options.progress("simplify labels", ++simplified, labels.size());
-                }
-            });
-            clock.done("simplify");
-        }
-        std::move(surfaces.begin(), surfaces.end(), std::back_inserter(result.surfaces));
-        std::move(models.begin(), models.end(), std::back_inserter(result.models));
-        merge_medial_axes(result.medial_axes, std::move(axes));
-        if (result.fields.empty()) {
-            // note: one batch when the fields are kept; else they are released, only the
-            // slices' empty sets stay
-            result.fields = std::move(fields);
+    });
+    std::vector<std::size_t> redo;
+    for (std::size_t i = 0; i < surfaces.size(); ++i) {
+        if (options.quantize.enabled && contour_options.edge_midpoints &&
+            surfaces[i].grid_step == 0.0 && !run.unsnapped[batch.first + i].empty()) {
+            redo.push_back(i);
         }
     }
+    if (!redo.empty()) {
+        rebuild_batch_at_corners(stack, options, contour_options, redo, result, run, batch);
+    }
+}
+
+/// The multiresolution model of each of the batch's surfaces; frees each label's distance
+/// fields once its model is built unless they are kept.
+void simplify_batch(const ReconstructOptions& options,
+                    const Reconstruction& result,
+                    LabelRun& run,
+                    LabelBatch& batch) {
+    const std::vector<ObjectSurface>& surfaces = batch.surfaces;
+    std::vector<MultiresMesh>& models = batch.models;
+    models.resize(surfaces.size());
+    // note: the largest surfaces start first; each also spreads its groups over the
+    // threads.
+    std::vector<std::size_t> order(surfaces.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return surfaces[a].mesh.triangles.size() > surfaces[b].mesh.triangles.size();
+    });
+    parallel_for(order.size(), options.threads, [&](std::size_t n) {
+        const std::size_t i = order[n];
+        const ObjectSurface& surface = surfaces[i];
+        const SliceErrorMeter meter(result.contours, batch.fields, surface.label,
+                                    result.slice_spacing_px);
+        MultiresOptions label_options = options.multires;
+        label_options.progress = nullptr;
+        label_options.threads = options.threads;
+        label_options.grid_step = surface.grid_step;
+        if (surface.verification.done && !surface.verification.ok()) {
+            label_options.max_levels = 0;  // note: collapses assume a closed manifold
+            run.kept[batch.first + i] = "surface failed verification; kept at full resolution only";
+        }
+        models[i] = build_multires_mesh(surface.mesh, meter,
+                                        surface.contour_deviation_px + surface.grid_shift_px,
+                                        label_options);
+        models[i].grid_step = surface.grid_step;
+        if (!options.keep_fields) {
+            release_fields(batch.fields, surface.label);
+        }
+        if (options.progress) {
+            const std::lock_guard<std::mutex> lock(run.progress_mutex);
+            options.progress("simplify labels", ++run.simplified, run.labels.size());
+        }
+    });
+}
+
+/// Moves the batch's results after those of the batches before it.
+void append_batch(Reconstruction& result, LabelBatch& batch) {
+    std::move(batch.surfaces.begin(), batch.surfaces.end(), std::back_inserter(result.surfaces));
+    std::move(batch.models.begin(), batch.models.end(), std::back_inserter(result.models));
+    merge_medial_axes(result.medial_axes, std::move(batch.axes));
     if (result.fields.empty()) {
-        result.fields.resize(stack.depth);
+        // note: one batch when the fields are kept; else they are released, only the
+        // slices' empty sets stay
+        result.fields = std::move(batch.fields);
     }
-    if (result.medial_axes.empty() && stack.depth > 1) {
-        result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
-    }
+}
 
-    // Warnings in stage order, as one pass over all labels gives them.
-    for (Warning& w : retried) {
+/// Warnings in stage order, as one pass over all labels gives them.
+void report_warnings(const SliceStack& stack,
+                     const ReconstructOptions& options,
+                     const Reconstruction& result,
+                     LabelRun& run,
+                     Report& report) {
+    for (Warning& w : run.retried) {
         report.warn(std::move(w.stage), std::move(w.where), std::move(w.message));
     }
-    for (std::size_t i = 0; i < labels.size(); ++i) {
-        if (!unsnapped[i].empty()) {
-            report.warn("quantize", "label " + std::to_string(labels[i]), unsnapped[i]);
+    for (std::size_t i = 0; i < run.labels.size(); ++i) {
+        if (!run.unsnapped[i].empty()) {
+            report.warn("quantize", "label " + std::to_string(run.labels[i]), run.unsnapped[i]);
         }
     }
     if (options.verify) {
@@ -360,9 +401,9 @@ Reconstruction reconstruct(const SliceStack& stack,
             }
         }
     }
-    for (std::size_t i = 0; i < kept.size(); ++i) {
-        if (!kept[i].empty()) {
-            report.warn("simplify", "label " + std::to_string(labels[i]), kept[i]);
+    for (std::size_t i = 0; i < run.kept.size(); ++i) {
+        if (!run.kept[i].empty()) {
+            report.warn("simplify", "label " + std::to_string(run.labels[i]), run.kept[i]);
         }
     }
     for (const ObjectSurface& surface : result.surfaces) {
@@ -382,6 +423,53 @@ Reconstruction reconstruct(const SliceStack& stack,
                         "empty slice inside the stack: objects are split there");
         }
     }
+}
+
+}  // namespace
+
+Reconstruction reconstruct(const SliceStack& stack,
+                           const ReconstructOptions& options,
+                           Report& report) {
+    Reconstruction result;
+    StageClock clock(result.timings);
+    const ContourOptions contour_options = contour_options_of(options);
+    result.contours = extract_contours(stack, contour_options);
+    clock.done("contours");
+    result.slice_spacing_px = slice_spacing_px(stack);
+
+    // The labels go through the stages after the contours in batches of options.batch_labels
+    // (all at once when the fields are kept): a batch's distance fields and medial axes are
+    // freed before the next batch starts, so they take the memory of one batch, not of all
+    // labels. Every stage works on each label alone: the output is the same for any batch size.
+    LabelRun run;
+    run.labels = options.triangulate.labels.empty() ? contour_labels(result.contours)
+                                                    : options.triangulate.labels;
+    const std::size_t batch_size = options.keep_fields || options.batch_labels == 0
+                                       ? std::max<std::size_t>(run.labels.size(), 1)
+                                       : options.batch_labels;
+    const char* verify_stage = options.quantize.enabled ? "quantize+verify" : "verify";
+    run.unsnapped.resize(run.labels.size());
+    run.kept.resize(run.labels.size());
+    for (std::size_t first = 0; first < run.labels.size(); first += batch_size) {
+        LabelBatch batch = start_batch(options, run.labels, first, batch_size);
+        triangulate_batch(stack, options, result, clock, batch);
+        if (options.quantize.enabled || options.verify) {
+            verify_batch(stack, options, contour_options, verify_stage, result, run, batch);
+            clock.done(verify_stage);
+        }
+        if (options.simplify) {
+            simplify_batch(options, result, run, batch);
+            clock.done("simplify");
+        }
+        append_batch(result, batch);
+    }
+    if (result.fields.empty()) {
+        result.fields.resize(stack.depth);
+    }
+    if (result.medial_axes.empty() && stack.depth > 1) {
+        result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
+    }
+    report_warnings(stack, options, result, run, report);
     return result;
 }
 
