@@ -171,6 +171,94 @@ void LabelSurface::insert_steiners(Cdt& cdt,
     }
 }
 
+/// Cost of each face of `wedge` with v at z_k ([0]) and at z_k+1 ([1]): the face's area times
+/// the mean squared difference between its height and the interpolation height at four
+/// interior points.
+std::vector<std::array<double, 2>> LabelSurface::wedge_level_costs(
+    const std::vector<FaceHandle>& wedge, VertexHandle v, std::uint32_t k) const {
+    std::vector<std::array<double, 2>> cost(wedge.size());
+    for (std::size_t j = 0; j < wedge.size(); ++j) {
+        const FaceHandle w = wedge[j];
+        const int vi = w->index(v);
+        std::array<Vec2, 3> xy;
+        std::array<double, 3> h{};
+        for (int m = 0; m < 3; ++m) {
+            const VertexHandle u = w->vertex(m);
+            xy[std::size_t(m)] = to_vec(u->point());
+            const VertexInfo& info = u->info();
+            h[std::size_t(m)] = info.steiner >= 0 ? steiner_t_[std::size_t(info.steiner)]
+                                : info.upper < 0  ? 0.0
+                                : info.lower < 0  ? 1.0
+                                                  : 0.5;  // another crossing: unknown
+        }
+        const double area = 0.5 * std::abs(cross(xy[1] - xy[0], xy[2] - xy[0]));
+        for (int level = 0; level < 2; ++level) {
+            h[std::size_t(vi)] = level;
+            double sum = 0.0;
+            for (int sample = 0; sample < 4; ++sample) {
+                // the centroid and the points (4, 1, 1) / 6 towards each corner
+                std::array<double, 3> b{1.0 / 3, 1.0 / 3, 1.0 / 3};
+                if (sample < 3) {
+                    b = {1.0 / 6, 1.0 / 6, 1.0 / 6};
+                    b[std::size_t(sample)] = 4.0 / 6;
+                }
+                const Vec2 q = b[0] * xy[0] + b[1] * xy[1] + b[2] * xy[2];
+                const double face_t = b[0] * h[0] + b[1] * h[1] + b[2] * h[2];
+                const double diff = face_t - height_t(to_point(q), k);
+                sum += diff * diff;
+            }
+            cost[j][std::size_t(level)] = area * sum / 4.0;
+        }
+    }
+    return cost;
+}
+
+/// The inner edge of `wedge` (ordered from the low boundary edge) at which to split it:
+/// among the edges to a Steiner point, the one of least total cost (wedge_level_costs);
+/// wedge.size() when there is none.
+std::size_t LabelSurface::best_wedge_split(const std::vector<FaceHandle>& wedge,
+                                           VertexHandle v,
+                                           std::uint32_t k) const {
+    // wedge[0] touches the low boundary edge. Inner edge j lies between wedge[j] and
+    // wedge[j + 1]; its far vertex is shared by both.
+    std::vector<std::size_t> candidates;
+    for (std::size_t j = 0; j + 1 < wedge.size(); ++j) {
+        const FaceHandle a = wedge[j];
+        const FaceHandle b = wedge[j + 1];
+        for (int m = 0; m < 3; ++m) {
+            const VertexHandle u = a->vertex(m);
+            if (u != v && b->has_vertex(u) && u->info().steiner >= 0) {
+                candidates.push_back(j);
+                break;
+            }
+        }
+    }
+    std::size_t split = wedge.size();
+    if (candidates.size() == 1) {
+        split = candidates[0];
+    } else if (!candidates.empty()) {
+        const std::vector<std::array<double, 2>> cost = wedge_level_costs(wedge, v, k);
+        // prefix sums: low cost of wedge[0..j], high cost of wedge[j+1..]
+        std::vector<double> low(wedge.size() + 1, 0.0);
+        std::vector<double> high(wedge.size() + 1, 0.0);
+        for (std::size_t j = 0; j < wedge.size(); ++j) {
+            low[j + 1] = low[j] + cost[j][0];
+        }
+        for (std::size_t j = wedge.size(); j-- > 0;) {
+            high[j] = high[j + 1] + cost[j][1];
+        }
+        double best = std::numeric_limits<double>::infinity();
+        for (const std::size_t j : candidates) {
+            const double c = low[j + 1] + high[j + 1];
+            if (c < best) {
+                best = c;
+                split = j;
+            }
+        }
+    }
+    return split;
+}
+
 /// Walks the faces of the surface around vertex i of f in both directions to the boundary
 /// edges; equal classes give the level directly. A wedge between a low and a high edge (where
 /// contours cross) is split at an edge to a Steiner point: faces on the low side use the
@@ -243,77 +331,7 @@ bool LabelSurface::resolve_corner(
     if (!low_first) {
         std::reverse(wedge.begin(), wedge.end());
     }
-    // wedge[0] touches the low boundary edge. Inner edge j lies between wedge[j] and
-    // wedge[j + 1]; its far vertex is shared by both.
-    std::vector<std::size_t> candidates;
-    for (std::size_t j = 0; j + 1 < wedge.size(); ++j) {
-        const FaceHandle a = wedge[j];
-        const FaceHandle b = wedge[j + 1];
-        for (int m = 0; m < 3; ++m) {
-            const VertexHandle u = a->vertex(m);
-            if (u != v && b->has_vertex(u) && u->info().steiner >= 0) {
-                candidates.push_back(j);
-                break;
-            }
-        }
-    }
-    std::size_t split = wedge.size();
-    if (candidates.size() == 1) {
-        split = candidates[0];
-    } else if (!candidates.empty()) {
-        // Cost of each face with v low and with v high.
-        std::vector<std::array<double, 2>> cost(wedge.size());
-        for (std::size_t j = 0; j < wedge.size(); ++j) {
-            const FaceHandle w = wedge[j];
-            const int vi = w->index(v);
-            std::array<Vec2, 3> xy;
-            std::array<double, 3> h{};
-            for (int m = 0; m < 3; ++m) {
-                const VertexHandle u = w->vertex(m);
-                xy[std::size_t(m)] = to_vec(u->point());
-                const VertexInfo& info = u->info();
-                h[std::size_t(m)] = info.steiner >= 0 ? steiner_t_[std::size_t(info.steiner)]
-                                    : info.upper < 0  ? 0.0
-                                    : info.lower < 0  ? 1.0
-                                                      : 0.5;  // another crossing: unknown
-            }
-            const double area = 0.5 * std::abs(cross(xy[1] - xy[0], xy[2] - xy[0]));
-            for (int level = 0; level < 2; ++level) {
-                h[std::size_t(vi)] = level;
-                double sum = 0.0;
-                for (int sample = 0; sample < 4; ++sample) {
-                    // the centroid and the points (4, 1, 1) / 6 towards each corner
-                    std::array<double, 3> b{1.0 / 3, 1.0 / 3, 1.0 / 3};
-                    if (sample < 3) {
-                        b = {1.0 / 6, 1.0 / 6, 1.0 / 6};
-                        b[std::size_t(sample)] = 4.0 / 6;
-                    }
-                    const Vec2 q = b[0] * xy[0] + b[1] * xy[1] + b[2] * xy[2];
-                    const double face_t = b[0] * h[0] + b[1] * h[1] + b[2] * h[2];
-                    const double diff = face_t - height_t(to_point(q), k);
-                    sum += diff * diff;
-                }
-                cost[j][std::size_t(level)] = area * sum / 4.0;
-            }
-        }
-        // prefix sums: low cost of wedge[0..j], high cost of wedge[j+1..]
-        std::vector<double> low(wedge.size() + 1, 0.0);
-        std::vector<double> high(wedge.size() + 1, 0.0);
-        for (std::size_t j = 0; j < wedge.size(); ++j) {
-            low[j + 1] = low[j] + cost[j][0];
-        }
-        for (std::size_t j = wedge.size(); j-- > 0;) {
-            high[j] = high[j + 1] + cost[j][1];
-        }
-        double best = std::numeric_limits<double>::infinity();
-        for (const std::size_t j : candidates) {
-            const double c = low[j + 1] + high[j + 1];
-            if (c < best) {
-                best = c;
-                split = j;
-            }
-        }
-    }
+    const std::size_t split = best_wedge_split(wedge, v, k);
     if (split == wedge.size()) {
         const FaceHandle mid = wedge[wedge.size() / 2];
         refine.push_back(CGAL::centroid(cdt.triangle(mid)));

@@ -269,6 +269,12 @@ private:
     /// Fills the corner levels of the wedge of `f` around its vertex `i`; returns false when the
     /// wedge needs a Steiner point first (then `refine` receives one).
     bool resolve_corner(Cdt& cdt, FaceHandle f, int i, std::uint32_t k, std::vector<Point>& refine);
+    std::vector<std::array<double, 2>> wedge_level_costs(const std::vector<FaceHandle>& wedge,
+                                                         VertexHandle v,
+                                                         std::uint32_t k) const;
+    std::size_t best_wedge_split(const std::vector<FaceHandle>& wedge,
+                                 VertexHandle v,
+                                 std::uint32_t k) const;
     double height_t(const Point& p, std::uint32_t k) const;
     VertexHandle insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k);
     /// Gives vertex v a height between the slices (from the distance fields).
