@@ -8,6 +8,81 @@
 
 namespace strata::detail {
 
+namespace {
+
+/// Whether q lies inside region `region` of the rings' triangulation (faces labelled), not on a
+/// vertex or a constrained edge.
+bool inside_region(const Cdt& cdt, Vec2 q, std::uint32_t region) {
+    Cdt::Locate_type type;
+    int li = 0;
+    const FaceHandle face = cdt.locate(to_point(q), type, li);
+    if (type == Cdt::VERTEX || type == Cdt::OUTSIDE_CONVEX_HULL ||
+        type == Cdt::OUTSIDE_AFFINE_HULL || cdt.is_infinite(face) ||
+        face->info().lower_region != std::int32_t(region)) {
+        return false;
+    }
+    return !(type == Cdt::EDGE && cdt.is_constrained({face, li}));
+}
+
+/// Dmax: the depth of the deepest of the field's nodes in the box (lo, hi) that lies inside
+/// region `region` (of the 256 deepest nodes inside the label); 0 when none does.
+double deepest_inside(
+    const Cdt& cdt, const DistanceField& field, std::uint32_t region, Vec2 lo, Vec2 hi) {
+    const DistanceField* f = &field;
+    const double x0 = lo.x, y0 = lo.y, x1 = hi.x, y1 = hi.y;
+    const double cell = DistanceField::kCellPx;
+    const auto i0 =
+        std::uint32_t(std::clamp(std::floor((x0 - f->origin_x) / cell), 0.0, double(f->nx - 1)));
+    const auto i1 =
+        std::uint32_t(std::clamp(std::ceil((x1 - f->origin_x) / cell), 0.0, double(f->nx - 1)));
+    const auto j0 =
+        std::uint32_t(std::clamp(std::floor((y0 - f->origin_y) / cell), 0.0, double(f->ny - 1)));
+    const auto j1 =
+        std::uint32_t(std::clamp(std::ceil((y1 - f->origin_y) / cell), 0.0, double(f->ny - 1)));
+    std::vector<std::pair<float, std::uint32_t>> deep;  // (-D, node) inside the label
+    for (std::uint32_t j = j0; j <= j1; ++j) {
+        for (std::uint32_t i = i0; i <= i1; ++i) {
+            const float v = f->at(i, j);
+            if (v < 0.0f) {
+                deep.emplace_back(v, j * f->nx + i);
+            }
+        }
+    }
+    std::sort(deep.begin(), deep.end());
+    double dmax = 0.0;
+    for (std::size_t n = 0; n < deep.size() && n < 256; ++n) {
+        const std::uint32_t node = deep[n].second;
+        if (inside_region(cdt, f->node_position(node % f->nx, node / f->nx), region)) {
+            dmax = -double(deep[n].first);
+            break;
+        }
+    }
+    return dmax;
+}
+
+/// The inner edges of region `region` that join two contour vertices (they would lie in the slice
+/// plane), as their midpoints, sorted and without repeats.
+std::vector<Point> plane_chords(const Cdt& cdt, std::uint32_t region) {
+    std::vector<Point> chords;
+    for (FaceHandle face : cdt.finite_face_handles()) {
+        if (face->info().lower_region != std::int32_t(region)) {
+            continue;
+        }
+        for (int i = 0; i < 3; ++i) {
+            const VertexHandle a = face->vertex(ccw(i));
+            const VertexHandle b = face->vertex(cw(i));
+            if (!cdt.is_constrained({face, i}) && a->info().steiner < 0 && b->info().steiner < 0) {
+                chords.push_back(CGAL::midpoint(a->point(), b->point()));
+            }
+        }
+    }
+    std::sort(chords.begin(), chords.end());
+    chords.erase(std::unique(chords.begin(), chords.end()), chords.end());
+    return chords;
+}
+
+}  // namespace
+
 /// Closes region `region` of slice k by planar caps: on top (normal +z) when it has no partner
 /// above, below when none below; alone on its slice it becomes a slab of thickness d/2.
 void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, bool bottom) {
@@ -187,44 +262,7 @@ bool LabelSurface::dome_cap(Cdt& cdt,
             y1 = std::max(y1, q.y);
         }
     }
-    auto inside = [&](Vec2 q) {
-        Cdt::Locate_type type;
-        int li = 0;
-        const FaceHandle face = cdt.locate(to_point(q), type, li);
-        if (type == Cdt::VERTEX || type == Cdt::OUTSIDE_CONVEX_HULL ||
-            type == Cdt::OUTSIDE_AFFINE_HULL || cdt.is_infinite(face) ||
-            face->info().lower_region != std::int32_t(region)) {
-            return false;
-        }
-        return !(type == Cdt::EDGE && cdt.is_constrained({face, li}));
-    };
-    const double cell = DistanceField::kCellPx;
-    const auto i0 =
-        std::uint32_t(std::clamp(std::floor((x0 - f->origin_x) / cell), 0.0, double(f->nx - 1)));
-    const auto i1 =
-        std::uint32_t(std::clamp(std::ceil((x1 - f->origin_x) / cell), 0.0, double(f->nx - 1)));
-    const auto j0 =
-        std::uint32_t(std::clamp(std::floor((y0 - f->origin_y) / cell), 0.0, double(f->ny - 1)));
-    const auto j1 =
-        std::uint32_t(std::clamp(std::ceil((y1 - f->origin_y) / cell), 0.0, double(f->ny - 1)));
-    std::vector<std::pair<float, std::uint32_t>> deep;  // (-D, node) inside the label
-    for (std::uint32_t j = j0; j <= j1; ++j) {
-        for (std::uint32_t i = i0; i <= i1; ++i) {
-            const float v = f->at(i, j);
-            if (v < 0.0f) {
-                deep.emplace_back(v, j * f->nx + i);
-            }
-        }
-    }
-    std::sort(deep.begin(), deep.end());
-    double dmax = 0.0;
-    for (std::size_t n = 0; n < deep.size() && n < 256; ++n) {
-        const std::uint32_t node = deep[n].second;
-        if (inside(f->node_position(node % f->nx, node / f->nx))) {
-            dmax = -double(deep[n].first);
-            break;
-        }
-    }
+    const double dmax = deepest_inside(cdt, *f, region, {x0, y0}, {x1, y1});
     if (!(dmax > 1.0) || !(height > 0.0)) {
         return false;
     }
@@ -246,7 +284,7 @@ bool LabelSurface::dome_cap(Cdt& cdt,
     for (double y = std::floor(y0 / step) * step + 0.5 * step; y < y1; y += step) {
         for (double x = std::floor(x0 / step) * step + 0.5 * step; x < x1; x += step) {
             const Vec2 q{x, y};
-            if (-sample_field(f, q) >= 1.0 && inside(q)) {
+            if (-sample_field(f, q) >= 1.0 && inside_region(cdt, q, region)) {
                 points.push_back(q);
             }
         }
@@ -270,25 +308,10 @@ bool LabelSurface::dome_cap(Cdt& cdt,
     // region, and become part of the section there. Split such chords at their midpoints.
     for (int round = 0; round < 16; ++round) {
         flood_regions(cdt, k, owners);
-        std::vector<Point> chords;
-        for (FaceHandle face : cdt.finite_face_handles()) {
-            if (face->info().lower_region != std::int32_t(region)) {
-                continue;
-            }
-            for (int i = 0; i < 3; ++i) {
-                const VertexHandle a = face->vertex(ccw(i));
-                const VertexHandle b = face->vertex(cw(i));
-                if (!cdt.is_constrained({face, i}) && a->info().steiner < 0 &&
-                    b->info().steiner < 0) {
-                    chords.push_back(CGAL::midpoint(a->point(), b->point()));
-                }
-            }
-        }
+        const std::vector<Point> chords = plane_chords(cdt, region);
         if (chords.empty()) {
             return true;
         }
-        std::sort(chords.begin(), chords.end());
-        chords.erase(std::unique(chords.begin(), chords.end()), chords.end());
         for (const Point& p : chords) {
             add(p);
         }
