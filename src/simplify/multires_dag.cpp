@@ -153,6 +153,127 @@ Sphere enclose(const Sphere& a, const Sphere& b) {
     return {center, radius * (1.0 + 1e-12) + 1e-12};
 }
 
+/// The triangle nearest to both ends of a contour piece and how near its ends come to any
+/// triangle (PieceFinder::nearest).
+struct PieceFit {
+    double best = std::numeric_limits<double>::infinity();  ///< deviation + farther end's distance
+    double nearest_a = std::numeric_limits<double>::infinity();
+    double nearest_b = std::numeric_limits<double>::infinity();
+    std::uint32_t triangle = 0;
+};
+
+/// Finds, for DagBuilder::attach_pieces, the triangle of `triangles` nearest to both ends of a
+/// contour piece: first among the triangles around the vertex at its first end, then in the
+/// grid over growing boxes around it.
+class PieceFinder {
+public:
+    PieceFinder(const std::vector<Vec3>& positions, const std::vector<Tri>& triangles, double cell)
+        : positions_(positions),
+          triangles_(triangles),
+          grid_(cell),
+          boxes_(triangles.size()),
+          seen_(triangles.size(), 0),
+          around_(positions.size()) {
+        Box all;
+        for (std::uint32_t t = 0; t < triangles_.size(); ++t) {
+            grid_.insert(t, corners(t));
+            for (const std::uint32_t v : triangles_[t]) {
+                all.add(positions_[v]);
+                boxes_[t].add(positions_[v]);
+            }
+        }
+        reach_ = norm(all.hi - all.lo);
+        // note: most pieces are mesh edges (the surface runs through the simplified contours):
+        // the triangles around the vertex at a piece's first end settle them without the grid
+        for (std::uint32_t t = 0; t < triangles_.size(); ++t) {
+            for (const std::uint32_t v : triangles_[t]) {
+                vertex_at_.emplace(positions_[v], v);
+                around_[v].push_back(t);
+            }
+        }
+    }
+
+    std::array<Vec3, 3> corners(std::uint32_t t) const {
+        const Tri& ids = triangles_[t];
+        return std::array<Vec3, 3>{positions_[ids[0]], positions_[ids[1]], positions_[ids[2]]};
+    }
+
+    PieceFit nearest(const ContourPiece& piece) const {
+        PieceFit found;
+        double& best = found.best;
+        double& nearest_a = found.nearest_a;
+        double& nearest_b = found.nearest_b;
+        std::uint32_t& best_triangle = found.triangle;
+        auto offer = [&](std::uint32_t t) {
+            // note: a triangle whose box is no nearer to either end than what is known cannot
+            // change anything (the box distance is below the triangle's, and kBoxSlackPx
+            // covers the rounding of both)
+            const Box& b = boxes_[t];
+            const double la = box_distance(piece.a, b) - kBoxSlackPx;
+            const double lb = box_distance(piece.b, b) - kBoxSlackPx;
+            if (la >= nearest_a && lb >= nearest_b &&
+                piece.deviation_px + std::max(la, lb) >= best) {
+                return;
+            }
+            const std::array<Vec3, 3> c = corners(t);
+            const double da = point_triangle_distance_px(piece.a, c);
+            const double db = point_triangle_distance_px(piece.b, c);
+            if (piece.deviation_px + std::max(da, db) < best) {
+                best = piece.deviation_px + std::max(da, db);
+                best_triangle = t;
+            }
+            nearest_a = std::min(nearest_a, da);
+            nearest_b = std::min(nearest_b, db);
+        };
+        if (const auto a = vertex_at_.find(piece.a); a != vertex_at_.end()) {
+            const auto b = vertex_at_.find(piece.b);
+            for (const std::uint32_t t : around_[a->second]) {
+                const Tri& ids = triangles_[t];
+                if (b != vertex_at_.end() &&
+                    (ids[0] == b->second || ids[1] == b->second || ids[2] == b->second)) {
+                    // the piece is an edge of t
+                    best = piece.deviation_px;
+                    best_triangle = t;
+                    nearest_a = nearest_b = 0.0;
+                    break;
+                }
+                offer(t);
+            }
+        }
+        for (double r = 1.0; best - piece.deviation_px > kPieceFitPx; r *= 2.0) {
+            Vec3 lo = piece.a, hi = piece.a;
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = std::min(piece.a[a], piece.b[a]) - r;
+                hi[a] = std::max(piece.a[a], piece.b[a]) + r;
+            }
+            ++query_;
+            grid_.query({lo, hi, hi}, [&](std::uint32_t t) {
+                if (seen_[t] == query_) {
+                    return;
+                }
+                seen_[t] = query_;
+                offer(t);
+            });
+            // note: a triangle within r of both ends meets the box, so `best` is final
+            if (best - piece.deviation_px <= r || r > reach_) {
+                break;
+            }
+        }
+        return found;
+    }
+
+private:
+    const std::vector<Vec3>& positions_;
+    const std::vector<Tri>& triangles_;
+    detail::TriangleGrid grid_;
+    std::vector<Box> boxes_;
+    double reach_ = 0.0;
+    mutable std::vector<std::uint32_t> seen_;  // the last query that met each triangle
+    mutable std::uint32_t query_ = 0;
+    std::unordered_map<Vec3, std::uint32_t, PositionHash> vertex_at_;
+    std::vector<std::vector<std::uint32_t>> around_;
+};
+
 class DagBuilder {
 public:
     DagBuilder(const TriMesh& surface,
@@ -256,102 +377,19 @@ private:
         if (triangles.empty()) {
             return attached;
         }
-        auto corners = [&](std::uint32_t t) {
-            const Tri& ids = triangles[t];
-            return std::array<Vec3, 3>{mesh_.positions[ids[0]], mesh_.positions[ids[1]],
-                                       mesh_.positions[ids[2]]};
-        };
-        detail::TriangleGrid grid(grid_cell_);
-        Box all;
-        std::vector<Box> boxes(triangles.size());
-        for (std::uint32_t t = 0; t < triangles.size(); ++t) {
-            grid.insert(t, corners(t));
-            for (const std::uint32_t v : triangles[t]) {
-                all.add(mesh_.positions[v]);
-                boxes[t].add(mesh_.positions[v]);
-            }
-        }
-        const double reach = norm(all.hi - all.lo);
-        std::vector<std::uint32_t> seen(triangles.size(), 0);
-        std::uint32_t query = 0;
-        // note: most pieces are mesh edges (the surface runs through the simplified contours):
-        // the triangles around the vertex at a piece's first end settle them without the grid
-        std::unordered_map<Vec3, std::uint32_t, PositionHash> vertex_at;
-        std::vector<std::vector<std::uint32_t>> around(mesh_.positions.size());
-        for (std::uint32_t t = 0; t < triangles.size(); ++t) {
-            for (const std::uint32_t v : triangles[t]) {
-                vertex_at.emplace(mesh_.positions[v], v);
-                around[v].push_back(t);
-            }
-        }
+        const PieceFinder finder(mesh_.positions, triangles, grid_cell_);
         std::vector<ContourPiece> work(meter_.contour_pieces().rbegin(),
                                        meter_.contour_pieces().rend());
         double worst = 0.0;
         while (!work.empty()) {
             const ContourPiece piece = work.back();
             work.pop_back();
-            double best = std::numeric_limits<double>::infinity();
-            double nearest_a = best, nearest_b = best;
-            std::uint32_t best_triangle = 0;
-            auto offer = [&](std::uint32_t t) {
-                // note: a triangle whose box is no nearer to either end than what is known cannot
-                // change anything (the box distance is below the triangle's, and kBoxSlackPx
-                // covers the rounding of both)
-                const Box& b = boxes[t];
-                const double la = box_distance(piece.a, b) - kBoxSlackPx;
-                const double lb = box_distance(piece.b, b) - kBoxSlackPx;
-                if (la >= nearest_a && lb >= nearest_b &&
-                    piece.deviation_px + std::max(la, lb) >= best) {
-                    return;
-                }
-                const std::array<Vec3, 3> c = corners(t);
-                const double da = point_triangle_distance_px(piece.a, c);
-                const double db = point_triangle_distance_px(piece.b, c);
-                if (piece.deviation_px + std::max(da, db) < best) {
-                    best = piece.deviation_px + std::max(da, db);
-                    best_triangle = t;
-                }
-                nearest_a = std::min(nearest_a, da);
-                nearest_b = std::min(nearest_b, db);
-            };
-            if (const auto a = vertex_at.find(piece.a); a != vertex_at.end()) {
-                const auto b = vertex_at.find(piece.b);
-                for (const std::uint32_t t : around[a->second]) {
-                    const Tri& ids = triangles[t];
-                    if (b != vertex_at.end() &&
-                        (ids[0] == b->second || ids[1] == b->second || ids[2] == b->second)) {
-                        // the piece is an edge of t
-                        best = piece.deviation_px;
-                        best_triangle = t;
-                        nearest_a = nearest_b = 0.0;
-                        break;
-                    }
-                    offer(t);
-                }
-            }
-            for (double r = 1.0; best - piece.deviation_px > kPieceFitPx; r *= 2.0) {
-                Vec3 lo = piece.a, hi = piece.a;
-                for (int a = 0; a < 3; ++a) {
-                    lo[a] = std::min(piece.a[a], piece.b[a]) - r;
-                    hi[a] = std::max(piece.a[a], piece.b[a]) + r;
-                }
-                ++query;
-                grid.query({lo, hi, hi}, [&](std::uint32_t t) {
-                    if (seen[t] == query) {
-                        return;
-                    }
-                    seen[t] = query;
-                    offer(t);
-                });
-                // note: a triangle within r of both ends meets the box, so `best` is final
-                if (best - piece.deviation_px <= r || r > reach) {
-                    break;
-                }
-            }
-            if (!(best < std::numeric_limits<double>::infinity())) {
+            const PieceFit found = finder.nearest(piece);
+            if (!(found.best < std::numeric_limits<double>::infinity())) {
                 continue;  // note: no triangle at all (not reached: triangles is not empty)
             }
-            const double fit = best - piece.deviation_px - std::max(nearest_a, nearest_b);
+            const double fit =
+                found.best - piece.deviation_px - std::max(found.nearest_a, found.nearest_b);
             if (fit > kPieceFitPx && piece.points != nullptr) {
                 const std::vector<ContourPiece> edges = piece.original_edges();
                 work.insert(work.end(), edges.rbegin(), edges.rend());
@@ -363,10 +401,10 @@ private:
                 work.push_back({piece.a, mid, piece.deviation_px});
                 continue;
             }
-            attached.emplace_back(best_triangle, std::uint32_t(pieces_.size()));
+            attached.emplace_back(found.triangle, std::uint32_t(pieces_.size()));
             pieces_.push_back(piece);
             // note: the original points may lie closer than the capsule around the piece says
-            worst = std::max(worst, piece_distance_px(piece, corners(best_triangle)));
+            worst = std::max(worst, piece_distance_px(piece, finder.corners(found.triangle)));
         }
         mesh_.full_resolution_error_px = std::max(mesh_.full_resolution_error_px, worst);
         attach_vertices(triangles, attached);
