@@ -794,72 +794,52 @@ ProgressiveFileObject decode_object(const JsonReader& r, ParsedObject& p, const 
     return object;
 }
 
-ProgressiveFile read_document(std::string_view bytes,
-                              const std::string& name,
-                              const std::function<std::string(const std::string&)>& load_buffer) {
-    const bool is_glb = bytes.size() >= 4 && le32(bytes, 0) == format::kGlbMagic;
+/// The JSON text and the BIN chunk (empty when there is none) of a GLB container (glTF 2.0
+/// section 4.4); all of `bytes` as JSON when it is not one.
+std::pair<std::string_view, std::string_view> glb_chunks(std::string_view bytes,
+                                                         const std::string& name,
+                                                         bool is_glb) {
     std::string_view json_text = bytes;
     std::string_view bin;
-    if (is_glb) {
-        if (bytes.size() < 20) {
-            throw Error(ErrorCode::InvalidInput, name + ": GLB of " + std::to_string(bytes.size()) +
-                                                     " bytes, shorter than its 20-byte header");
-        }
-        if (le32(bytes, 4) != 2) {
-            throw Error(ErrorCode::Unsupported,
-                        name + ": GLB version " + std::to_string(le32(bytes, 4)) + ", expected 2");
-        }
-        if (le32(bytes, 8) != bytes.size()) {
-            throw Error(ErrorCode::InvalidInput,
-                        name + ": GLB header says " + std::to_string(le32(bytes, 8)) +
-                            " bytes, the file has " + std::to_string(bytes.size()) +
-                            " (truncated or padded)");
-        }
-        const std::uint64_t json_length = le32(bytes, 12);
-        if (le32(bytes, 16) != format::kGlbJsonChunk || json_length > bytes.size() - 20) {
-            throw Error(ErrorCode::InvalidInput,
-                        name + ": the first GLB chunk (at byte 12) is not a JSON chunk that fits");
-        }
-        json_text = bytes.substr(20, json_length);
-        const std::uint64_t next = 20 + json_length;
-        if (next + 8 <= bytes.size()) {
-            const std::uint64_t bin_length = le32(bytes, next);
-            if (le32(bytes, next + 4) != format::kGlbBinChunk ||
-                bin_length > bytes.size() - next - 8) {
-                throw Error(ErrorCode::InvalidInput, name + ": the GLB chunk at byte " +
-                                                         std::to_string(next) +
-                                                         " is not a BIN chunk that fits");
-            }
-            bin = bytes.substr(next + 8, bin_length);
-        }
-    }
-    if (json_text.size() > kMaxJsonBytes) {
-        throw Error(ErrorCode::InvalidInput, name + ": JSON of " +
-                                                 std::to_string(json_text.size()) +
-                                                 " bytes, more than the limit of 512 MiB");
-    }
-    Json json;
-    try {
-        json = Json::parse(json_text);
-    } catch (const Json::exception& e) {
-        throw Error(ErrorCode::InvalidInput, name + ": not glTF JSON: " + e.what());
-    }
-    const JsonReader r(name, json);
-    r.object(json, "");
-    const Json& asset = r.object(json, "asset", "");
-    if (r.string(asset, "version", "/asset") != "2.0") {
-        r.fail("/asset/version", "expected \"2.0\"");
-    }
-    ProgressiveFile file;
-    file.generator = r.string(asset, "generator", "/asset");
-    const Data data = load_data(r, bin, is_glb, load_buffer);
-    file.total_bytes = bytes.size();
     if (!is_glb) {
-        for (const std::string& b : data.buffers) {
-            file.total_bytes += b.size();
-        }
+        return {json_text, bin};
     }
-    // parse every object, then check every graph, then decode
+    if (bytes.size() < 20) {
+        throw Error(ErrorCode::InvalidInput, name + ": GLB of " + std::to_string(bytes.size()) +
+                                                 " bytes, shorter than its 20-byte header");
+    }
+    if (le32(bytes, 4) != 2) {
+        throw Error(ErrorCode::Unsupported,
+                    name + ": GLB version " + std::to_string(le32(bytes, 4)) + ", expected 2");
+    }
+    if (le32(bytes, 8) != bytes.size()) {
+        throw Error(ErrorCode::InvalidInput,
+                    name + ": GLB header says " + std::to_string(le32(bytes, 8)) +
+                        " bytes, the file has " + std::to_string(bytes.size()) +
+                        " (truncated or padded)");
+    }
+    const std::uint64_t json_length = le32(bytes, 12);
+    if (le32(bytes, 16) != format::kGlbJsonChunk || json_length > bytes.size() - 20) {
+        throw Error(ErrorCode::InvalidInput,
+                    name + ": the first GLB chunk (at byte 12) is not a JSON chunk that fits");
+    }
+    json_text = bytes.substr(20, json_length);
+    const std::uint64_t next = 20 + json_length;
+    if (next + 8 <= bytes.size()) {
+        const std::uint64_t bin_length = le32(bytes, next);
+        if (le32(bytes, next + 4) != format::kGlbBinChunk || bin_length > bytes.size() - next - 8) {
+            throw Error(ErrorCode::InvalidInput, name + ": the GLB chunk at byte " +
+                                                     std::to_string(next) +
+                                                     " is not a BIN chunk that fits");
+        }
+        bin = bytes.substr(next + 8, bin_length);
+    }
+    return {json_text, bin};
+}
+
+/// Parses the objects of the scene: nodes with the extension below a root, each with the
+/// matrices above it.
+std::vector<ParsedObject> parse_objects(const JsonReader& r, const Json& json, const Data& data) {
     std::vector<ParsedObject> parsed;
     const Json& nodes = r.array(json, "nodes", "");
     const Json& scenes = r.array(json, "scenes", "");
@@ -906,6 +886,42 @@ ProgressiveFile read_document(std::string_view bytes,
             }
         }
     }
+    return parsed;
+}
+
+ProgressiveFile read_document(std::string_view bytes,
+                              const std::string& name,
+                              const std::function<std::string(const std::string&)>& load_buffer) {
+    const bool is_glb = bytes.size() >= 4 && le32(bytes, 0) == format::kGlbMagic;
+    const auto [json_text, bin] = glb_chunks(bytes, name, is_glb);
+    if (json_text.size() > kMaxJsonBytes) {
+        throw Error(ErrorCode::InvalidInput, name + ": JSON of " +
+                                                 std::to_string(json_text.size()) +
+                                                 " bytes, more than the limit of 512 MiB");
+    }
+    Json json;
+    try {
+        json = Json::parse(json_text);
+    } catch (const Json::exception& e) {
+        throw Error(ErrorCode::InvalidInput, name + ": not glTF JSON: " + e.what());
+    }
+    const JsonReader r(name, json);
+    r.object(json, "");
+    const Json& asset = r.object(json, "asset", "");
+    if (r.string(asset, "version", "/asset") != "2.0") {
+        r.fail("/asset/version", "expected \"2.0\"");
+    }
+    ProgressiveFile file;
+    file.generator = r.string(asset, "generator", "/asset");
+    const Data data = load_data(r, bin, is_glb, load_buffer);
+    file.total_bytes = bytes.size();
+    if (!is_glb) {
+        for (const std::string& b : data.buffers) {
+            file.total_bytes += b.size();
+        }
+    }
+    // parse every object, then check every graph, then decode
+    std::vector<ParsedObject> parsed = parse_objects(r, json, data);
     if (parsed.empty()) {
         throw Error(ErrorCode::Unsupported,
                     name + ": no node uses STRATA_progressive_mesh; not a progressive strata file");
