@@ -4,6 +4,10 @@
 // crash or another exception. The JSON is parsed with nlohmann_json (bounded size) and every field
 // is read through JsonReader, which checks its type; the GLB container (glTF 2.0 section 4.4) by
 // hand; the chunks with Draco's decoder (exporters/detail/draco_chunk.h).
+//
+// One file: its three steps (parse, check the graph, decode) pass the file-local JsonReader,
+// Data, ParsedObject and Graph between them and share the one error rule (Error{InvalidInput}
+// naming the JSON pointer); apart, each step would export these types, which no other code reads.
 #include "exporters/read_progressive_gltf.h"
 
 #include <algorithm>

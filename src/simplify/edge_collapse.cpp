@@ -8,6 +8,11 @@
 // iff the vertices adjacent to both u and v are exactly the two opposite the edge, and neither of
 // those is left with fewer than three edges. Embedding is kept by testing every triangle a
 // collapse creates against its neighbourhood (a uniform grid over the triangles) exactly.
+//
+// One file: the tests a collapse must pass (link condition, folds, error cost, intersections)
+// are members of one Collapser and read and update the same state inside its priority-queue
+// loop (local vertex ids, neighbour lists, the triangle-error cache, the scratch buffers); apart,
+// each would export that state.
 #include "simplify/edge_collapse.h"
 
 #include <algorithm>

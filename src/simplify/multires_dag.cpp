@@ -3,6 +3,11 @@
 // Karis, "Nanite: a deep dive", SIGGRAPH 2021), with the paper's error-bounded edge collapses
 // (section 7) inside each group. Selective refinement (paper section 6.2) becomes the choice of a
 // cut.
+//
+// One file: DagBuilder's steps (grouping, per-group collapses, contour-piece attachment,
+// bounds) are members of one class that update the same mesh, piece lists and grids, helped by
+// the file-local geometry (Box, spheres, PieceFinder); the cut selection after it is short and
+// reads only the DAG it builds. Apart, the builder's state would be exported.
 #include "simplify/multires_dag.h"
 
 #include <algorithm>
