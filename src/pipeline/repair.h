@@ -86,8 +86,10 @@ std::vector<ObjectSurface> triangulate_with_repairs(const SliceStack& stack,
                                                     const TriangulateOptions& options);
 
 /// The quantize stage for one surface, with verification and kFinerGrid: snaps it to the grid
-/// of `options.step` and verifies the snapped surface. When the surface does not snap, or its
-/// snapped form fails verification while the original passes, the step is halved (up to
+/// of `options.step` and verifies the snapped surface, and checks it exactly for
+/// self-intersections and degenerate triangles in the grid frame files store too
+/// (grid_frame_positions; with or without `verify`). When the surface does not snap, or its
+/// snapped form fails these checks while the original passes, the step is halved (up to
 /// `options.max_halvings` times); failing that, the original is kept unsnapped. Returns why the
 /// surface stayed unsnapped (empty when it was snapped or quantization is off).
 std::string quantize_with_repairs(const SliceStack& stack,

@@ -1,6 +1,7 @@
 #include "quantize/snap_to_grid.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <iostream>
@@ -11,8 +12,11 @@
 
 #include "core/error.h"
 #include "mesh/mesh_checks.h"
+#include "mesh/self_intersection.h"
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
+#include "pipeline/repair.h"
+#include "simplify/edge_collapse.h"
 #include "support/surface_checks.h"
 
 namespace strata {
@@ -178,6 +182,36 @@ TEST(SnapToGrid, PipelineSurfacesAreSnappedAndVerified) {
             EXPECT_LE(surface.grid_shift_px, surface.grid_step / std::sqrt(2.0));
         }
     }
+}
+
+TEST(SnapToGrid, RepairsCheckTheStoredGridFrame) {
+    // Corners on slice planes 0, 1, 3 at x = 0, 1, 3: collinear in the grid frame files store
+    // (z in slices), but not in slice space, where 3 d rounds differently from 3 x (1 d).
+    const double d = 0.1;
+    ObjectSurface surface;
+    surface.label = 1;
+    surface.mesh.positions = {{0.0, 0.0, 0.0}, {1.0, 0.0, 1.0 * d}, {3.0, 0.0, 3.0 * d}};
+    surface.mesh.triangles = {{0, 1, 2}};
+    const auto corners = [](const std::vector<Vec3>& p) {
+        return std::array<Vec3, 3>{p[0], p[1], p[2]};
+    };
+    ASSERT_FALSE(has_self_intersections(surface.mesh));
+    QuantizeOptions options;
+    GridSnap snap;
+    std::string why;
+    ASSERT_TRUE(snap_to_grid(surface.mesh, d, options.step, snap, why)) << why;
+    ASSERT_FALSE(triangle_is_degenerate(corners(snap.mesh.positions)));
+    ASSERT_TRUE(triangle_is_degenerate(
+        corners(grid_frame_positions(snap.mesh.positions, d, options.step))));
+
+    // no verification (the stack is not read): the snap fails at every step, the surface stays
+    // unsnapped and says why
+    const SliceStack stack;
+    const std::string unsnapped = quantize_with_repairs(stack, d, options, false, surface);
+    EXPECT_NE(unsnapped.find("degenerate triangle in the stored grid frame"), std::string::npos)
+        << unsnapped;
+    EXPECT_EQ(surface.grid_step, 0.0);
+    EXPECT_EQ(surface.mesh.positions[2].z, 3.0 * d);
 }
 
 }  // namespace
