@@ -154,18 +154,14 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
     }
     if (walls) {
         // Walls: contours keep the region on their left, so outward is to the right.
-        for (std::uint32_t local = 0; local < rings_[k].size(); ++local) {
-            if (owner_region(k, local) != region) {
-                continue;
-            }
-            const Ring& ring = rings_[k][local];
+        for_each_region_ring(k, region, [&](const Ring& ring) {
             for (std::size_t i = 0; i < ring.ids.size(); ++i) {
                 const auto p = lift(ring.ids[i]);
                 const auto q = lift(ring.ids[(i + 1) % ring.ids.size()]);
                 out.push_back({p[0], q[0], q[1]});
                 out.push_back({p[0], q[1], p[1]});
             }
-        }
+        });
     }
     if (slab) {
         surface_.caps += 2;
@@ -176,17 +172,13 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
 
 double LabelSurface::region_area(std::uint32_t slice, std::uint32_t region) const {
     double area = 0.0;  // outer contours count positive, holes negative
-    for (std::uint32_t local = 0; local < rings_[slice].size(); ++local) {
-        if (owner_region(slice, local) != region) {
-            continue;
-        }
-        const Ring& ring = rings_[slice][local];
+    for_each_region_ring(slice, region, [&](const Ring& ring) {
         for (std::size_t i = 0; i < ring.points.size(); ++i) {
             const Vec2 a = to_vec(ring.points[i]);
             const Vec2 b = to_vec(ring.points[(i + 1) % ring.points.size()]);
             area += 0.5 * (a.x * b.y - b.x * a.y);
         }
-    }
+    });
     return area;
 }
 
@@ -250,18 +242,15 @@ bool LabelSurface::dome_cap(Cdt& cdt,
 
     // Dmax: the deepest field node inside this region.
     double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-    for (std::uint32_t local = 0; local < rings_[k].size(); ++local) {
-        if (owner_region(k, local) != region) {
-            continue;
-        }
-        for (const Point& p : rings_[k][local].points) {
+    for_each_region_ring(k, region, [&](const Ring& ring) {
+        for (const Point& p : ring.points) {
             const Vec2 q = to_vec(p);
             x0 = std::min(x0, q.x);
             y0 = std::min(y0, q.y);
             x1 = std::max(x1, q.x);
             y1 = std::max(y1, q.y);
         }
-    }
+    });
     const double dmax = deepest_inside(cdt, *f, region, {x0, y0}, {x1, y1});
     if (!(dmax > 1.0) || !(height > 0.0)) {
         return false;

@@ -80,17 +80,11 @@ void LabelSurface::find_crossings(std::uint32_t k) {
         const std::vector<Contour>& all = contours_.slices[slice].contours;
         for (std::uint32_t local = 0; local < label_contours_[slice].size(); ++local) {
             const Contour& c = all[label_contours_[slice][local]];
-            const std::size_t n = c.simplified.size();
-            for (std::uint32_t e = 0; e < n; ++e) {
-                const Vec2 a = c.points[c.simplified[e]];
-                const Vec2 b = c.points[c.simplified[(e + 1) % n]];
-                double lo[2] = {std::min(a.x, b.x), std::min(a.y, b.y)};
-                double hi[2] = {std::max(a.x, b.x), std::max(a.y, b.y)};
-                boxes[side].emplace_back(
-                    lo, hi,
-                    std::array<std::uint32_t, 3>{local, e, std::uint32_t(segments[side].size())});
+            for_each_simplified_edge(c, [&](std::uint32_t e, Vec2 a, Vec2 b) {
+                boxes[side].push_back(
+                    segment_box<Box>(a, b, {local, e, std::uint32_t(segments[side].size())}));
                 segments[side].push_back(Segment(to_point(a), to_point(b)));
-            }
+            });
         }
     }
     if (boxes[0].empty() || boxes[1].empty()) {
@@ -188,10 +182,9 @@ void LabelSurface::build_rings() {
         for (std::uint32_t local = 0; local < label_contours_[k].size(); ++local) {
             const Contour& c = all[label_contours_[k][local]];
             Ring ring;
-            const std::size_t n = c.simplified.size();
-            for (std::uint32_t e = 0; e < n; ++e) {
-                const Point a = to_point(c.points[c.simplified[e]]);
-                const Point b = to_point(c.points[c.simplified[(e + 1) % n]]);
+            for_each_simplified_edge(c, [&](std::uint32_t e, Vec2 from, Vec2 to) {
+                const Point a = to_point(from);
+                const Point b = to_point(to);
                 ring.points.push_back(a);
                 std::vector<Point>& extra = splits_[k][local][e];
                 std::sort(extra.begin(), extra.end(), [&](const Point& p, const Point& q) {
@@ -202,7 +195,7 @@ void LabelSurface::build_rings() {
                         ring.points.push_back(p);
                     }
                 }
-            }
+            });
             for (const Point& p : ring.points) {
                 ring.ids.push_back(add_vertex(to_vec(p), slice_z(k)));
             }

@@ -119,15 +119,10 @@ bool contours_clean(const SliceContourSet& set, std::uint16_t label) {
         }
         const auto contour = std::uint32_t(segments.size());
         segments.emplace_back();
-        const std::size_t n = c.simplified.size();
-        for (std::uint32_t e = 0; e < n; ++e) {
-            const Vec2 a = c.points[c.simplified[e]];
-            const Vec2 b = c.points[c.simplified[(e + 1) % n]];
-            double lo[2] = {std::min(a.x, b.x), std::min(a.y, b.y)};
-            double hi[2] = {std::max(a.x, b.x), std::max(a.y, b.y)};
-            boxes.emplace_back(lo, hi, std::array<std::uint32_t, 2>{contour, e});
+        detail::for_each_simplified_edge(c, [&](std::uint32_t e, Vec2 a, Vec2 b) {
+            boxes.push_back(detail::segment_box<Box>(a, b, {contour, e}));
             segments.back().push_back(EdgeSegment(EdgePoint(a.x, a.y), EdgePoint(b.x, b.y)));
-        }
+        });
     }
     bool clean = true;
     CGAL::box_self_intersection_d(

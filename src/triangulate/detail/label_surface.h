@@ -12,6 +12,7 @@
 //   surface.cpp        build() runs the phases; the public entry points (triangulate_label).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -96,6 +97,24 @@ inline Point to_point(Vec2 p) {
 
 inline Vec2 to_vec(const Point& p) {
     return {CGAL::to_double(p.x()), CGAL::to_double(p.y())};
+}
+
+/// Calls f(e, a, b) for each simplified edge e of `c`, from a to b (the last edge wraps to the
+/// first simplified vertex).
+template <class F>
+void for_each_simplified_edge(const Contour& c, F&& f) {
+    const std::size_t n = c.simplified.size();
+    for (std::uint32_t e = 0; e < n; ++e) {
+        f(e, c.points[c.simplified[e]], c.points[c.simplified[(e + 1) % n]]);
+    }
+}
+
+/// The bounding box of segment a-b for CGAL's box intersection, carrying `info`.
+template <class Box>
+Box segment_box(Vec2 a, Vec2 b, const typename Box::Info& info) {
+    double lo[2] = {std::min(a.x, b.x), std::min(a.y, b.y)};
+    double hi[2] = {std::max(a.x, b.x), std::max(a.y, b.y)};
+    return Box(lo, hi, info);
 }
 
 /// The edges of one slice's contour rings, bucketed on a square grid, for nearest-edge queries.
@@ -303,6 +322,16 @@ private:
         const std::vector<Contour>& all = contours_.slices[slice].contours;
         const Contour& c = all[label_contours_[slice][local]];
         return c.is_hole ? all[std::size_t(c.parent)].region : c.region;
+    }
+    /// Calls f(ring) for each contour ring of `slice` that bounds region `region` (its outer
+    /// contour and its holes).
+    template <class F>
+    void for_each_region_ring(std::uint32_t slice, std::uint32_t region, F&& f) const {
+        for (std::uint32_t local = 0; local < rings_[slice].size(); ++local) {
+            if (owner_region(slice, local) == region) {
+                f(rings_[slice][local]);
+            }
+        }
     }
     /// The background component on the outer side of an outer contour, inside a hole contour.
     std::uint32_t background_beside(std::uint32_t slice, std::uint32_t local) const {
