@@ -1,6 +1,7 @@
 #include "input/planar_contours.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <map>
@@ -295,29 +296,27 @@ void warn_counts(const Counts& counts,
                         format_mm(counts.largest_off_plane) +
                         " mm off their plane: projected onto it");
     }
-    if (counts.opened > 0) {
-        report.warn("input", where,
-                    std::to_string(counts.opened) +
-                        " open contour(s) closed by the segment from their last point to "
-                        "their first");
-    }
-    if (counts.self_crossing > 0) {
-        report.warn("input", where,
-                    std::to_string(counts.self_crossing) +
-                        " contour(s) cross themselves: their inside is taken by the "
-                        "even-odd rule");
-    }
-    if (counts.keyholes > 0) {
-        report.warn("input", where,
-                    std::to_string(counts.keyholes) +
-                        " contour(s) with keyhole cuts (edges running back over each other): "
-                        "the cut has no area, the hole stays a hole");
-    }
-    if (counts.degenerate > 0) {
-        report.warn("input", where,
-                    std::to_string(counts.degenerate) +
-                        " contour(s) with fewer than 3 distinct points or no area: kept as "
-                        "markers, not surfaces");
+    // What each single count means, in the order the warnings are given.
+    struct CountWarning {
+        std::size_t Counts::*count;
+        const char* what;
+    };
+    static constexpr std::array<CountWarning, 4> kCountWarnings{{
+        {&Counts::opened,
+         " open contour(s) closed by the segment from their last point to their first"},
+        {&Counts::self_crossing,
+         " contour(s) cross themselves: their inside is taken by the even-odd rule"},
+        {&Counts::keyholes,
+         " contour(s) with keyhole cuts (edges running back over each other): the cut has no "
+         "area, the hole stays a hole"},
+        {&Counts::degenerate,
+         " contour(s) with fewer than 3 distinct points or no area: kept as markers, not "
+         "surfaces"},
+    }};
+    for (const CountWarning& warning : kCountWarnings) {
+        if (counts.*warning.count > 0) {
+            report.warn("input", where, std::to_string(counts.*warning.count) + warning.what);
+        }
     }
     if (counts.points > 0 || counts.nonplanar > 0) {
         report.warn("input", where,
