@@ -38,6 +38,7 @@ import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
 import { startServer } from '../serve.mjs';
 import { chromiumMissing, launchChromium } from '../chromium.mjs';
+import { parseThrottle, throttlePage } from './link.mjs';
 
 function usage(message) {
     if (message) console.error(`first-frame: ${message}`);
@@ -64,9 +65,8 @@ function parseArgs(args) {
         const arg = args[i];
         if (arg === '--gltf') options.gltf = args[++i];
         else if (arg === '--throttle') {
-            const [mbit, rtt] = (args[++i] ?? '').split(',').map(Number);
-            if (!(mbit > 0) || !(rtt >= 0)) usage('--throttle MBIT,RTT_MS');
-            options.throttle = { mbit, rtt };
+            options.throttle = parseThrottle(args[++i]);
+            if (!options.throttle) usage('--throttle MBIT,RTT_MS');
         } else if (arg === '--runs') options.runs = Number(args[++i]);
         else if (arg === '--viewport') {
             const [width, height] = (args[++i] ?? '').split('x').map(Number);
@@ -163,16 +163,7 @@ async function measure(url, options, label, { cache, base }) {
         const page = await browser.context.newPage();
         page.on('pageerror', (e) => errors.push(e.message));
         page.on('console', (m) => m.type() === 'error' && errors.push(m.text()));
-        if (options.throttle) {
-            const cdp = await browser.context.newCDPSession(page);
-            await cdp.send('Network.enable');
-            await cdp.send('Network.emulateNetworkConditions', {
-                offline: false,
-                latency: options.throttle.rtt,
-                downloadThroughput: (options.throttle.mbit * 1e6) / 8,
-                uploadThroughput: (options.throttle.mbit * 1e6) / 8,
-            });
-        }
+        if (options.throttle) await throttlePage(browser.context, page, options.throttle);
         if (cache === 'warm') {
             // the returning visitor: the page without a model, until its decoder has arrived
             await page.goto(base);

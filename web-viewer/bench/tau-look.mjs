@@ -16,6 +16,7 @@ import { mkdirSync } from 'node:fs';
 import { basename, join } from 'node:path';
 import { startServer } from '../serve.mjs';
 import { chromiumMissing, launchChromium } from '../chromium.mjs';
+import { parseThrottle, throttlePage } from './link.mjs';
 
 function usage(message) {
     if (message) console.error(`tau-look: ${message}`);
@@ -32,9 +33,8 @@ for (let i = 0; i < args.length; ++i) {
     const arg = args[i];
     if (arg === '--taus') options.taus = (args[++i] ?? '').split(',').map(Number);
     else if (arg === '--throttle') {
-        const [mbit, rtt] = (args[++i] ?? '').split(',').map(Number);
-        if (!(mbit > 0) || !(rtt >= 0)) usage('--throttle MBIT,RTT_MS');
-        options.throttle = { mbit, rtt };
+        options.throttle = parseThrottle(args[++i]);
+        if (!options.throttle) usage('--throttle MBIT,RTT_MS');
     } else if (arg === '--viewport') [options.width, options.height] = (args[++i] ?? '').split('x').map(Number);
     else if (arg === '--out') options.out = args[++i];
     else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
@@ -53,14 +53,7 @@ async function look(server, tau) {
     const browser = await launchChromium({ viewport: { width: options.width, height: options.height } });
     try {
         const page = await browser.context.newPage();
-        const cdp = await browser.context.newCDPSession(page);
-        await cdp.send('Network.enable');
-        await cdp.send('Network.emulateNetworkConditions', {
-            offline: false,
-            latency: options.throttle.rtt,
-            downloadThroughput: (options.throttle.mbit * 1e6) / 8,
-            uploadThroughput: (options.throttle.mbit * 1e6) / 8,
-        });
+        await throttlePage(browser.context, page, options.throttle);
         await page.goto(`${server.url}&tau=${tau}&preserve&aa=0`);
         if (!(await page.evaluate(() => window.strataViewer.ready))) throw new Error(`tau ${tau}: no model`);
         await page.evaluate(() => window.strataViewer.idle(600000, 3));
