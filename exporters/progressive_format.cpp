@@ -1,5 +1,6 @@
 #include "exporters/progressive_format.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -52,7 +53,7 @@ std::string encode_dag_table(const DagTable& table) {
         put(out, static_cast<std::uint32_t>(g.consumed.size()), 2);
         put(out, static_cast<std::uint32_t>(g.produced.size()), 2);
         put(out, g.level, 2);
-        put(out, 0, 2);
+        put(out, g.fine, 2);
     }
     for (const DagGroup& g : table.groups) {
         for (const auto* list : {&g.consumed, &g.produced}) {
@@ -161,9 +162,7 @@ DagTable parse_dag_table(std::string_view bytes,
         if (out.level == 0) {
             fail(where, at + 28, "group " + std::to_string(g) + ": level 0, expected >= 1");
         }
-        if (get(bytes, at + 30, 2) != 0) {
-            fail(where, at + 30, "group " + std::to_string(g) + ": reserved bytes not 0");
-        }
+        out.fine = static_cast<std::uint16_t>(get(bytes, at + 30, 2));
         out.consumed.resize(consumed);
         out.produced.resize(produced);
     }
@@ -187,6 +186,24 @@ DagTable parse_dag_table(std::string_view bytes,
         }
     }
     return table;
+}
+
+std::uint16_t encode_fine(double bound, double error) {
+    if (!(bound < error) || !(error > 0.0)) {
+        return 0xffff;
+    }
+    if (!(bound > 0.0)) {
+        return 0;
+    }
+    auto q = static_cast<std::uint32_t>(std::ceil(bound / error * kFineDenominator));
+    q = std::min<std::uint32_t>(q, 0xffff);
+    while (q < 0xffff && fine_error(error, static_cast<std::uint16_t>(q)) < bound) {
+        ++q;
+    }
+    while (q > 0 && fine_error(error, static_cast<std::uint16_t>(q - 1)) >= bound) {
+        --q;
+    }
+    return static_cast<std::uint16_t>(q);
 }
 
 double round_up_decimal(double x, int digits) {

@@ -1,6 +1,6 @@
 #pragma once
 
-// The progressive glTF format (STRATA_progressive_mesh version 2, schema/README.md), defined once
+// The progressive glTF format (STRATA_progressive_mesh version 3, schema/README.md), defined once
 // for C++: names, constants and the binary DAG table. The writer, the reader, the CLI, the size
 // benchmark and the tests use these; the JavaScript side has its own single definition
 // (web-viewer/).
@@ -16,7 +16,7 @@ namespace strata::format {
 
 inline constexpr std::string_view kExtension = "STRATA_progressive_mesh";
 inline constexpr std::string_view kDraco = "KHR_draco_mesh_compression";
-inline constexpr int kVersion = 2;
+inline constexpr int kVersion = 3;
 
 // Scene structure: the root node (patient LPS mm -> glTF metres) and its one child, the storage
 // frame (-> patient LPS mm) shared by every object node below it.
@@ -60,7 +60,9 @@ struct DagGroup {
     std::array<float, 4> sphere{};   ///< x, y, z, r: metres, scene frame
     std::uint32_t chunk_offset = 0;  ///< in the object's `chunks` buffer view
     std::uint32_t chunk_length = 0;
-    std::uint16_t level = 0;              ///< level of the produced clusters, >= 1
+    std::uint16_t level = 0;  ///< level of the produced clusters, >= 1
+    /// The bound against the finest level as a fraction of the group's error: fine_error().
+    std::uint16_t fine = 0;
     std::vector<std::uint32_t> consumed;  ///< k-th: `_CLUSTER` value k in the chunk
     std::vector<std::uint32_t> produced;
 };
@@ -87,6 +89,19 @@ std::size_t dag_table_length(std::string_view bytes, const std::string& where);
 /// `group_count` is the JSON's `errors.length`. Graph rules are checked separately.
 /// \throw Error{InvalidInput} "<where>: byte <offset>: <what>, expected <...>".
 DagTable parse_dag_table(std::string_view bytes, std::size_t group_count, const std::string& where);
+
+/// The denominator of a group record's `fine` fraction.
+inline constexpr double kFineDenominator = 65535.0;
+
+/// A group's bound against the finest level: its (written) error times fine / 65535, evaluated
+/// in this order in binary64 (as the JavaScript reader does, so both get the same number).
+inline double fine_error(double error, std::uint16_t fine) {
+    return error * double(fine) / kFineDenominator;
+}
+
+/// The smallest `fine` whose fine_error(error, fine) is at least `bound` (65535 when `bound` >=
+/// `error`: the error itself bounds the distance to the finest level too).
+std::uint16_t encode_fine(double bound, double error);
 
 /// A bound rounded up to `digits` significant decimal digits, as a JSON reader parses it back
 /// (monotone: x <= y gives round(x) <= round(y)). The format writes errors with 3.

@@ -1,4 +1,4 @@
-// Progressive glTF 2.0, STRATA_progressive_mesh version 2 (schema/README.md; docs/format.md has
+// Progressive glTF 2.0, STRATA_progressive_mesh version 3 (schema/README.md; docs/format.md has
 // the measurements behind it): the base mesh as one Draco primitive (KHR_draco_mesh_compression),
 // one raw Draco chunk per group, the DAG as a binary table, one error per group in the JSON.
 //
@@ -479,6 +479,7 @@ Json base_mesh_json(
 /// The DAG table of one model: spheres nested as written, chunk ranges from `chunk_offsets`.
 format::DagTable dag_table(const MultiresMesh& model,
                            const StorageFrame& storage,
+                           const std::vector<double>& errors,
                            const std::vector<std::uint32_t>& chunk_offsets,
                            const std::vector<EncodedMesh>& chunks) {
     format::DagTable table;
@@ -499,6 +500,17 @@ format::DagTable dag_table(const MultiresMesh& model,
         out.chunk_offset = chunk_offsets[g];
         out.chunk_length = static_cast<std::uint32_t>(chunks[g].bytes.size());
         out.level = static_cast<std::uint16_t>(group.level);
+        // the bound against the finest level as written (a fraction of the written error), made
+        // monotone again after the rounding: at least that of every group below
+        double fine = group.fine_error_px * storage.error_m_per_px;
+        for (const std::uint32_t c : group.consumed) {
+            const std::int32_t below = model.clusters[c].producer;
+            if (below >= 0) {
+                fine = std::max(fine, format::fine_error(errors[std::size_t(below)],
+                                                         table.groups[std::size_t(below)].fine));
+            }
+        }
+        out.fine = format::encode_fine(fine, errors[g]);
         out.consumed = group.consumed;
         out.produced = group.produced;
         table.groups.push_back(std::move(out));
@@ -555,8 +567,13 @@ void write_object(Json& json,
         stats.chunk_bytes += chunks[g].bytes.size();
         ++stats.chunks;
     }
+    std::vector<double> error_m;
+    for (const MultiresGroup& group : model.groups) {
+        error_m.push_back(
+            format::round_up_decimal(group.error_px * storage.error_m_per_px, kErrorDigits));
+    }
     const std::string table =
-        format::encode_dag_table(dag_table(model, storage, chunk_offsets, chunks));
+        format::encode_dag_table(dag_table(model, storage, error_m, chunk_offsets, chunks));
     stats.dag_bytes += table.size();
     stats.groups += model.groups.size();
     const std::size_t dag_offset = shared.tables.size();
@@ -575,9 +592,8 @@ void write_object(Json& json,
     const int material = static_cast<int>(json["materials"].size() - 1);
     json["meshes"].push_back(base_mesh_json(json, base, base_view, model.roots().size(), material));
     Json errors = Json::array();
-    for (const MultiresGroup& group : model.groups) {
-        errors.push_back(
-            format::round_up_decimal(group.error_px * storage.error_m_per_px, kErrorDigits));
+    for (const double e : error_m) {
+        errors.push_back(e);
     }
     Json node;
     node["name"] = name;

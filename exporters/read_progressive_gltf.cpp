@@ -1,4 +1,4 @@
-// Reader of strata's progressive glTF, STRATA_progressive_mesh version 2 (schema/README.md):
+// Reader of strata's progressive glTF, STRATA_progressive_mesh version 3 (schema/README.md):
 // parse, check the graph, decode, each step complete before the next, so a corrupt or hostile
 // file ends in Error{InvalidInput} naming what and where before any large allocation, never in a
 // crash or another exception. The JSON is parsed with nlohmann_json (bounded size) and every field
@@ -414,8 +414,9 @@ FileViews parse_file_extension(const JsonReader& r, const Data& data) {
     if (version == nullptr || !version->is_number_integer() ||
         version->get<std::int64_t>() != format::kVersion) {
         throw Error(ErrorCode::Unsupported,
-                    r.name() + ": " + where +
-                        "/version: not 2 (a version 1 file or newer): rebuild it with this strata");
+                    r.name() + ": " + where + "/version: not " + std::to_string(format::kVersion) +
+                        " (a file of an earlier strata, or a newer one): rebuild it with this "
+                        "strata");
     }
     FileViews views;
     views.dag = data.view(r.index(*ext, "dag", where, data.views.size(), "buffer view"));
@@ -559,6 +560,17 @@ Graph check_graph(const JsonReader& r, const ParsedObject& p) {
                 r.fail(p.where + "/errors/" + std::to_string(g),
                        "error " + std::to_string(p.errors[g]) + " below the error " +
                            std::to_string(under) + " of what it replaces: errors must be monotone");
+            }
+            if (below >= 0) {
+                const double fine = format::fine_error(p.errors[g], group.fine);
+                const double fine_under = format::fine_error(p.errors[std::size_t(below)],
+                                                             t.groups[std::size_t(below)].fine);
+                if (!(fine >= fine_under)) {
+                    fail(gs + "'s bound against the finest level " + std::to_string(fine) +
+                         " (fine " + std::to_string(group.fine) + ") is below the bound " +
+                         std::to_string(fine_under) + " of group " + std::to_string(below) +
+                         ": bounds must be monotone");
+                }
             }
             if (below >= 0) {
                 const auto& a = group.sphere;
@@ -767,6 +779,7 @@ ProgressiveFileObject decode_object(const JsonReader& r, ParsedObject& p, const 
         out.consumed = group.consumed;
         out.produced = group.produced;
         out.error_px = p.errors[g];
+        out.fine_error_px = format::fine_error(p.errors[g], group.fine);
         out.bounds = {{group.sphere[0], group.sphere[1], group.sphere[2]}, group.sphere[3]};
         model.groups.push_back(std::move(out));
         object.level_bytes.resize(std::max<std::size_t>(object.level_bytes.size(), group.level), 0);

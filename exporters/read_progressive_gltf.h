@@ -39,7 +39,7 @@ struct ProgressiveFile {
     std::vector<ProgressiveFileObject> objects;
 };
 
-/// Reads a `.glb` or `.gltf` of STRATA_progressive_mesh version 2 (schema/README.md) in three
+/// Reads a `.glb` or `.gltf` of STRATA_progressive_mesh version 3 (schema/README.md) in three
 /// steps, each complete before the next: parse (GLB container, every JSON field read with its
 /// type checked, buffers and views, the base primitive's accessors, the DAG tables), check the
 /// graph (every rule of the spec's "Validation" that needs no geometry: links, levels, order,
@@ -50,7 +50,7 @@ struct ProgressiveFile {
 /// beside the file (no `..`, no absolute paths, no data URIs).
 /// \throw Error{InvalidInput} with what is wrong and where (a JSON pointer or byte offset) for
 ///        malformed, inconsistent or hostile content (never another exception type);
-///        Error{Unsupported} for files that are valid glTF but not progressive version 2;
+///        Error{Unsupported} for files that are valid glTF but not progressive version 3;
 ///        Error{Io} when a file cannot be read.
 ProgressiveFile read_progressive_gltf(const std::filesystem::path& path);
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Size of the progressive glTF (STRATA_progressive_mesh version 2) against its peers (issue 16),
+# Size of the progressive glTF (STRATA_progressive_mesh version 3) against its peers (issue 16),
 # side by side in one run. For each case (every label an object, as `strata build` does)
 # tests/bench/progressive_size reconstructs the surfaces, writes the progressive model.glb and
 # reports its total bytes (= bytes to full resolution), its base (GLB header + JSON + DAG tables +

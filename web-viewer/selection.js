@@ -128,6 +128,9 @@ export function buildDag(ext, { clusterTriangles } = {}) {
     });
     const triangles = Float64Array.from(clusterTriangles ?? new Array(nc).fill(0));
     const error = Float64Array.from(groups, (g) => g.error);
+    // what selection projects: the bound against the finest level (what the rest of the
+    // refinement can still change), the slice bound where a DAG has none
+    const fine = Float64Array.from(groups, (g) => g.fineError ?? g.error);
     const sphere = new Float64Array(4 * ng);
     groups.forEach((g, i) => sphere.set(g.sphere, 4 * i));
     const clusterSphere = new Float64Array(4 * nc);
@@ -156,6 +159,7 @@ export function buildDag(ext, { clusterTriangles } = {}) {
         consumer,
         triangles,
         error,
+        fine,
         sphere,
         clusterSphere,
         children,
@@ -255,9 +259,10 @@ export function screenSpaceError(error, sphere, view, offset = 0) {
     return (error * view.heightPx) / (d * 2 * Math.tan(view.fovy / 2));
 }
 
-/// Screen-space error of group g (its error at its sphere).
+/// Screen-space error of group g: its bound against the finest level at its sphere (how far the
+/// rest of the refinement below g can still move the surface on screen).
 export function groupScreenSpaceError(dag, g, view) {
-    return screenSpaceError(dag.error[g], dag.sphere, view, 4 * g);
+    return screenSpaceError(dag.fine[g], dag.sphere, view, 4 * g);
 }
 
 /// Does sphere (at offset in array s) meet the view frustum?
@@ -462,27 +467,26 @@ export function selectCut(dags, view, options = {}) {
 }
 
 /// Statistics of a cut of one DAG: triangles, the largest error bound of the drawn clusters
-/// (metres) and the largest projected error of the drawn clusters (pixels; each cluster's bound
-/// at its producer's sphere, or at its own sphere for level 0; only clusters in the frustum).
+/// (metres, against the slices), the largest bound against the finest level (metres) and that
+/// bound projected (pixels; each cluster's producer's bound at its sphere, 0 for level 0: what
+/// the viewer's tau limits; only clusters in the frustum).
 export function cutStats(dag, drawn, view) {
     let triangles = 0;
     let maxError = 0;
+    let maxFineError = 0;
     let maxErrorPx = 0;
     const frustum = view?.frustum ?? null;
     for (const c of drawn) {
         triangles += dag.triangles[c];
-        const e = clusterError(dag, c);
-        maxError = Math.max(maxError, e);
-        if (view) {
-            const p = dag.producer[c];
-            const s = p >= 0 ? dag.sphere : dag.clusterSphere;
-            const o = 4 * (p >= 0 ? p : c);
-            if (sphereInFrustum(dag.clusterSphere, 4 * c, frustum)) {
-                maxErrorPx = Math.max(maxErrorPx, screenSpaceError(e, s, view, o));
-            }
+        maxError = Math.max(maxError, clusterError(dag, c));
+        const p = dag.producer[c];
+        if (p < 0) continue;
+        maxFineError = Math.max(maxFineError, dag.fine[p]);
+        if (view && sphereInFrustum(dag.clusterSphere, 4 * c, frustum)) {
+            maxErrorPx = Math.max(maxErrorPx, screenSpaceError(dag.fine[p], dag.sphere, view, 4 * p));
         }
     }
-    return { triangles, maxError, maxErrorPx };
+    return { triangles, maxError, maxFineError, maxErrorPx };
 }
 
 /// Sets the triangle count of cluster c (known once its chunk or the base is decoded) and keeps

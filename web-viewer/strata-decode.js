@@ -3,7 +3,7 @@
 // the normals of a drawn cut. Used by the plugin (strata-progressive.js), the viewer's tests and
 // tests/node/check_progressive.mjs. Every function validates what it reads and throws an Error
 // that says what, where and what was expected.
-import { kChunkAttributeIds, kDagTable, kExtension, kVersion } from './strata-format.js';
+import { fineError, kChunkAttributeIds, kDagTable, kExtension, kVersion } from './strata-format.js';
 
 const isIndex = (v) => Number.isInteger(v) && v >= 0;
 const isNumber = (v) => typeof v === 'number' && Number.isFinite(v);
@@ -110,12 +110,12 @@ export function parseDagTable(bytes, info, chunksLength, where = 'DAG table') {
             producedCount: view.getUint16(r + T.producedCountOffset, true),
             level: view.getUint16(r + T.levelOffset, true),
             error: info.errors[g],
+            fineError: fineError(info.errors[g], view.getUint16(r + T.fineOffset, true)),
         };
         const at = `${where}: group ${g} (record at byte ${r})`;
         if (!sphere.every(Number.isFinite) || !(sphere[3] >= 0)) throw new Error(`${at}: sphere ${sphere}`);
         if (group.consumedCount < 1 || group.producedCount < 1) throw new Error(`${at}: a count is 0`);
         if (group.level < 1) throw new Error(`${at}: level 0, expected >= 1`);
-        if (view.getUint16(r + T.reservedOffset, true) !== 0) throw new Error(`${at}: reserved is not 0`);
         if (group.chunkLength < 1 || group.chunkOffset + group.chunkLength > chunksLength) {
             throw new Error(
                 `${at}: chunk [${group.chunkOffset}, +${group.chunkLength}) outside the chunks view (${chunksLength} bytes)`,
@@ -170,6 +170,10 @@ export function parseDagTable(bytes, info, chunksLength, where = 'DAG table') {
                 );
             if (groups[p].error > group.error)
                 throw new Error(`${where}: group ${g}: error ${group.error} below its child ${p}'s ${groups[p].error}`);
+            if (groups[p].fineError > group.fineError)
+                throw new Error(
+                    `${where}: group ${g}: bound against the finest level ${group.fineError} below its child ${p}'s ${groups[p].fineError}`,
+                );
             if (!sphereContains(group.sphere, groups[p].sphere))
                 throw new Error(`${where}: group ${g}'s sphere does not contain its child ${p}'s`);
         }

@@ -58,10 +58,10 @@ export const kGlb = {
 };
 
 // ------------------------------------------------------------------------------------------------
-// version 2 (schema/README.md)
+// version 3 (schema/README.md)
 
-/// The extension object's version this code reads (version 1 files are not read).
-export const kVersion = 2;
+/// The extension object's version this code reads (files of versions 1 and 2 are not read).
+export const kVersion = 3;
 
 /// The DAG table in the `dag` buffer view: a 16-byte header, 32-byte group records, then the
 /// cluster-id lists (consumed then produced, per group), zero-padded to a multiple of 4.
@@ -82,8 +82,15 @@ export const kDagTable = {
     consumedCountOffset: 24, // uint16
     producedCountOffset: 26, // uint16
     levelOffset: 28, // uint16
-    reservedOffset: 30, // uint16, 0
+    fineOffset: 30, // uint16: bound against the finest level = error * fine / fineDenominator
+    fineDenominator: 65535,
 };
+
+/// A group's bound against the finest level (metres) from its error and its record's `fine`,
+/// evaluated in this order in binary64, as the C++ reader does.
+export function fineError(error, fine) {
+    return (error * fine) / kDagTable.fineDenominator;
+}
 
 /// Draco unique ids of a chunk's attributes (and the base primitive's glTF attribute names).
 export const kChunkAttributeIds = { position: 0, cluster: 1, slot: 2 };

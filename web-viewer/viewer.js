@@ -470,7 +470,7 @@ function updateHud(now) {
         );
         const px = last?.maxErrorPx ?? 0;
         lines.push(
-            `max error  ${Number.isFinite(px) ? px.toFixed(2) : 'inf'} px, ${((last?.maxError ?? 0) * 1000).toFixed(2)} mm`,
+            `max error  ${Number.isFinite(px) ? px.toFixed(2) : 'inf'} px to full resolution, ${((last?.maxError ?? 0) * 1000).toFixed(2)} mm to the slices`,
         );
         if (roi) lines.push(`region     ${formatCount(last?.roiTriangles ?? 0)} triangles, tau / ${roi.factor}`);
     } else if (gltf) {

@@ -45,6 +45,7 @@ Json file_info_json(const FileInfo& info) {
                               {"triangles", level.triangles},
                               {"clusters", level.clusters},
                               {"error_mm", level.error_mm},
+                              {"fine_error_mm", level.fine_error_mm},
                               {"chunk_bytes", level.chunk_bytes}});
         }
         objects.push_back({{"name", o.name},
@@ -66,11 +67,12 @@ void print_file_info(std::ostream& out, const FileInfo& info) {
     for (const FileObjectInfo& o : info.objects) {
         out << "  " << o.name << " (label " << o.label << "): base " << o.base_bytes << " bytes, "
             << o.groups << " splits\n";
-        out << "    level  triangles  clusters  error mm  chunk bytes\n";
+        out << "    level  triangles  clusters  error mm  to level 0 mm  chunk bytes\n";
         for (const FileLevelInfo& level : o.levels) {
             char buf[160];
-            std::snprintf(buf, sizeof(buf), "    %5u  %9zu  %8zu  %8.3f  %11zu\n", level.level,
-                          level.triangles, level.clusters, level.error_mm, level.chunk_bytes);
+            std::snprintf(buf, sizeof(buf), "    %5u  %9zu  %8zu  %8.3f  %13.3f  %11zu\n",
+                          level.level, level.triangles, level.clusters, level.error_mm,
+                          level.fine_error_mm, level.chunk_bytes);
             out << buf;
         }
     }

@@ -49,6 +49,7 @@ struct FileLevelInfo {
     std::size_t triangles = 0;
     std::size_t clusters = 0;
     double error_mm = 0.0;
+    double fine_error_mm = 0.0;  ///< bound against the finest level (format version 3)
     std::size_t chunk_bytes = 0;
 };
 

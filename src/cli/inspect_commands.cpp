@@ -186,6 +186,7 @@ int info_of_file(const InfoOptions& options) {
                 triangles += object.model.clusters[c].triangles.size();
             }
             o.levels.push_back({level, triangles, cut.clusters.size(), cut.error_px * 1000.0,
+                                cut.fine_error_px * 1000.0,
                                 level < object.level_bytes.size() ? object.level_bytes[level] : 0});
         }
         info.objects.push_back(std::move(o));

@@ -198,6 +198,9 @@ public:
         }
     }
 
+    /// Whether `p` is the position of a vertex of the triangles.
+    bool is_vertex(const Vec3& p) const { return vertex_at_.contains(p); }
+
     std::array<Vec3, 3> corners(std::uint32_t t) const {
         const Tri& ids = triangles_[t];
         return std::array<Vec3, 3>{positions_[ids[0]], positions_[ids[1]], positions_[ids[2]]};
@@ -414,6 +417,16 @@ private:
         mesh_.full_resolution_error_px = std::max(mesh_.full_resolution_error_px, worst);
         attach_vertices(triangles, attached);
         std::sort(attached.begin(), attached.end());
+        // which piece ends are full-resolution vertices, and their distance at level 0
+        piece_vertex_ends_.assign(pieces_.size(), 0);
+        for (std::size_t i = 0; i < pieces_.size(); ++i) {
+            piece_vertex_ends_[i] = char((finder.is_vertex(pieces_[i].a) ? 1 : 0) |
+                                         (finder.is_vertex(pieces_[i].b) ? 2 : 0));
+        }
+        for (const auto& [t, piece] : attached) {
+            fine_floor_px_ =
+                std::max(fine_floor_px_, vertex_end_distance_px(piece, finder.corners(t)));
+        }
         return attached;
     }
 
@@ -444,6 +457,21 @@ private:
                 pieces_.push_back({p, p, 0.0});
             }
         }
+    }
+
+    /// The largest distance from `triangle` of the ends of piece `piece` that are full-resolution
+    /// vertices (0 when neither is).
+    double vertex_end_distance_px(std::uint32_t piece, const std::array<Vec3, 3>& triangle) const {
+        const ContourPiece& p = pieces_[piece];
+        const char ends = piece_vertex_ends_[piece];
+        double d = 0.0;
+        if ((ends & 1) != 0) {
+            d = point_triangle_distance_px(p.a, triangle);
+        }
+        if ((ends & 2) != 0) {
+            d = std::max(d, point_triangle_distance_px(p.b, triangle));
+        }
+        return d;
     }
 
     /// Position of every triangle in `triangles`.
@@ -757,6 +785,24 @@ private:
         group.level = level;
         group.consumed = members;
         group.error_px = std::max(result.max_error_px, attempt.children_error);
+        // the finest level: the vertices attached to the result's triangles, the groups below
+        group.fine_error_px = fine_floor_px_;
+        for (const auto& [t, piece] : result.piece_triangles) {
+            const Tri& ids = result.triangles[t];
+            group.fine_error_px = std::max(
+                group.fine_error_px,
+                vertex_end_distance_px(piece, {mesh_.positions[ids[0]], mesh_.positions[ids[1]],
+                                               mesh_.positions[ids[2]]}));
+        }
+        for (const std::uint32_t c : members) {
+            const std::int32_t p = mesh_.clusters[c].producer;
+            if (p >= 0) {
+                group.fine_error_px =
+                    std::max(group.fine_error_px, mesh_.groups[std::size_t(p)].fine_error_px);
+            }
+        }
+        // note: a piece's distance covers its ends', so this only guards the order of the bounds
+        group.error_px = std::max(group.error_px, group.fine_error_px);
         const std::int32_t id = std::int32_t(mesh_.groups.size());
         // Where every vertex of the group goes: follow the collapses to the survivor.
         std::unordered_map<std::uint32_t, std::uint32_t> onto;
@@ -805,6 +851,11 @@ private:
     std::vector<Vec3> exact_;
     std::vector<Box> boxes_;            ///< per cluster, in the grid frame
     std::vector<ContourPiece> pieces_;  ///< the label's contour pieces (attach_pieces)
+    /// Per piece: bit 1 when its end a is a full-resolution vertex, bit 2 when b is.
+    std::vector<char> piece_vertex_ends_;
+    /// Largest distance of a full-resolution vertex that ends a piece from the level-0 triangle
+    /// the piece is attached to: a floor of every group's fine_error_px.
+    double fine_floor_px_ = 0.0;
     /// Per cluster: (triangle index in the cluster, piece) for the pieces attached to it.
     std::vector<std::vector<PieceAttachment>> cluster_pieces_;
     std::vector<std::uint32_t> frontier_;
@@ -857,6 +908,10 @@ MultiresCut select_cut(const MultiresMesh& mesh,
                 std::max(cut.error_px, cluster.producer < 0
                                            ? mesh.full_resolution_error_px
                                            : mesh.groups[std::size_t(cluster.producer)].error_px);
+            if (cluster.producer >= 0) {
+                cut.fine_error_px = std::max(
+                    cut.fine_error_px, mesh.groups[std::size_t(cluster.producer)].fine_error_px);
+            }
         }
     }
     return cut;

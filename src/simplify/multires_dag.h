@@ -46,6 +46,12 @@ struct MultiresGroup {
     /// included) to their triangles, made monotone: never below the error of any group that
     /// produced a consumed cluster.
     double error_px = 0.0;
+    /// Bound (px, slice space) on the distance of every full-resolution vertex from a cut in which
+    /// this group is the coarsest unrefined producer: every vertex attached (as a piece or a piece
+    /// end) to a produced cluster lies within it of the triangle it is attached to. Made monotone
+    /// like error_px and never above it; what a viewer needs to know how much the rest of the
+    /// refinement would still change on screen.
+    double fine_error_px = 0.0;
     /// Contains the produced and consumed clusters and the bounds of every group below, so a
     /// projected error (error / distance to the sphere) is monotone along the DAG too.
     Sphere bounds;
@@ -141,6 +147,9 @@ MultiresMesh build_multires_mesh(const TriMesh& surface,
 struct MultiresCut {
     std::vector<std::uint32_t> clusters;  ///< increasing cluster ids
     double error_px = 0.0;                ///< largest producer error among them
+    /// Largest fine_error_px among their producers (0 when every cluster is of level 0): every
+    /// full-resolution vertex lies within it of the cut.
+    double fine_error_px = 0.0;
 };
 
 /// The cut that refines every group for which `refine(group)` is true, and every group above a

@@ -1,4 +1,4 @@
-// Size of the progressive glTF (STRATA_progressive_mesh version 2) against single-rate Draco and
+// Size of the progressive glTF (STRATA_progressive_mesh version 3) against single-rate Draco and
 // gltfpack, side by side in one run (issue 16), plus a sweep of the multiresolution parameters.
 //
 //   progressive_size [--case SPEC]... [--sweep-case SPEC]... [--sweep-keep 0.25,0.35]
@@ -785,7 +785,7 @@ struct SweepRow {
 };
 
 void print_main(const std::vector<MainRow>& rows) {
-    std::cout << "Progressive .glb (version 2) against single-rate peers of the same surfaces; "
+    std::cout << "Progressive .glb (version 3) against single-rate peers of the same surfaces; "
                  "kB = 1000 B\n";
     std::cout << pad("case", 24, true) << pad("objs", 5) << pad("groups", 7) << pad("triangles", 10)
               << pad("ours kB", 9) << pad("Draco PN", 9) << pad("x", 6) << pad("Draco P", 9)

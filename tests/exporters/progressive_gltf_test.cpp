@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "exporters/progressive_format.h"
 #include "exporters/read_progressive_gltf.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/shading_normals.h"
@@ -377,7 +378,7 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
     EXPECT_FALSE(node.contains("matrix"));
     const Json& ext = node["extensions"]["STRATA_progressive_mesh"];
     const Json& file_ext = json["extensions"]["STRATA_progressive_mesh"];
-    EXPECT_EQ(file_ext["version"], 2);
+    EXPECT_EQ(file_ext["version"], 3);
     EXPECT_FALSE(ext.contains("version"));
     ASSERT_EQ(ext["errors"].size(), model.groups.size());
     EXPECT_EQ(ext["gridStep"].get<double>(), model.grid_step);
@@ -430,7 +431,11 @@ void expect_file_holds_model(const fs::path& path, const Model& m, double flip) 
         ASSERT_EQ(table_u16(table, at + 24), group.consumed.size());
         ASSERT_EQ(table_u16(table, at + 26), group.produced.size());
         EXPECT_EQ(table_u16(table, at + 28), group.level);
-        EXPECT_EQ(table_u16(table, at + 30), 0u);
+        // the bound against the finest level, a fraction of the written error, holds the model's
+        const double fine =
+            format::fine_error(ext["errors"][g].get<double>(), table_u16(table, at + 30));
+        EXPECT_GE(fine, group.fine_error_px * m_per_px * (1.0 - 1e-12));
+        EXPECT_LE(fine, ext["errors"][g].get<double>());
         std::vector<std::uint32_t> ids;
         for (std::size_t i = 0; i < group.consumed.size() + group.produced.size(); ++i) {
             ids.push_back(id_bytes == 2 ? table_u16(table, list) : table_u32(table, list));

@@ -460,8 +460,8 @@ TEST(ReadProgressiveGltf, GltfBuffersMustBeFilesBesideIt) {
 
 /// The fuzz target's structure-aware seeds (tests/fuzz/corpus/read_progressive), written when
 /// STRATA_FUZZ_SEED_DIR is set: a small valid file and one variant per class of damage the reader
-/// must refuse (fields of the wrong type, table corruptions, shared and oversized chunks, version
-/// 1), so that mutations start next to every check.
+/// must refuse (fields of the wrong type, table corruptions, shared and oversized chunks, versions
+/// 1 and 2, bounds not monotone), so that mutations start next to every check.
 TEST(ReadProgressiveGltfSeeds, WritesFuzzSeeds) {
     const char* dir = std::getenv("STRATA_FUZZ_SEED_DIR");
     if (dir == nullptr) {
@@ -496,6 +496,13 @@ TEST(ReadProgressiveGltfSeeds, WritesFuzzSeeds) {
     seed("mode_string", set("/meshes/0/primitives/0/mode", "4"));
     seed("normalized_string", set("/accessors/0/normalized", "true"));
     seed("version_1", set(mutated.file_ext + "/version", 1));
+    seed("version_2", set(mutated.file_ext + "/version", 2));
+    seed("fine_not_monotone", [&](Glb& g) {
+        const std::size_t t = mutated.table(g);
+        const std::size_t last = get32(g.bin, t + 8) - 1;
+        const std::size_t at = t + 16 + 32 * last + 28;
+        put32(g.bin, at, get32(g.bin, at) & 0xFFFFu);
+    });
     seed("errors_not_monotone", set(mutated.ext + "/errors/0", 1.0));
     seed("tables_shared", [&](Glb& g) {
         g.json["nodes"].push_back(g.json["nodes"][2]);
@@ -541,7 +548,7 @@ TEST(ReadProgressiveGltf, TableAndExtensionFieldsEachSideOfTheirLimits) {
                         "idBytes " + std::to_string(id_bytes) + ", expected 2 or 4");
     }
     // per group record: radius >= 0 (the smallest negative float is refused), chunk length >= 1,
-    // counts >= 1, level >= 1, reserved 0
+    // counts >= 1, level >= 1
     const std::size_t r0 = 16;
     expect_rejected(mutated([&](Glb& g) {
                         const float r = -std::numeric_limits<float>::denorm_min();
@@ -557,14 +564,16 @@ TEST(ReadProgressiveGltf, TableAndExtensionFieldsEachSideOfTheirLimits) {
                     "expected >= 1 each");
     expect_rejected(mutated([&](Glb& g) {
                         const std::size_t at = mutated.table(g) + r0 + 28;
-                        put32(g.bin, at, 0);  // level 0, reserved 0
+                        put32(g.bin, at, 0);  // level 0, fine 0
                     }),
                     "group 0: level 0, expected >= 1");
+    // the bound against the finest level (fine, the record's last uint16) monotone: the last
+    // group (a parent) at fine 0 is below its children's
     expect_rejected(mutated([&](Glb& g) {
-                        const std::size_t at = mutated.table(g) + r0 + 28;
-                        put32(g.bin, at, (get32(g.bin, at) & 0xFFFFu) | (1u << 16));
+                        const std::size_t at = mutated.table(g) + r0 + 32 * (groups - 1) + 28;
+                        put32(g.bin, at, get32(g.bin, at) & 0xFFFFu);
                     }),
-                    "group 0: reserved bytes not 0");
+                    "bounds must be monotone");
     // chunk ranges: the last chunk ends inside the chunks view (before its padding); a chunk
     // ending one byte past the view's end leaves it
     const int chunks_view = mutated.glb.json[Json::json_pointer(mutated.file_ext + "/chunks")];
@@ -585,10 +594,10 @@ TEST(ReadProgressiveGltf, TableAndExtensionFieldsEachSideOfTheirLimits) {
                         put32(g.bin, at, get32(g.bin, at) + std::uint32_t(view_length - end + 1));
                     }),
                     "leaves the chunks buffer view");
-    // gridStep > 0; the extension's version exactly 2; asset.version "2.0"
+    // gridStep > 0; the extension's version exactly 3; asset.version "2.0"
     expect_rejected(mutated([&](Glb& g) { g.json[Json::json_pointer(ext + "/gridStep")] = 0.0; }),
                     "gridStep");
-    for (const int version : {1, 3}) {
+    for (const int version : {1, 2, 4}) {
         try {
             read_progressive_gltf(mutated([&](Glb& g) {
                                       g.json[Json::json_pointer(mutated.file_ext + "/version")] =
@@ -597,7 +606,7 @@ TEST(ReadProgressiveGltf, TableAndExtensionFieldsEachSideOfTheirLimits) {
                                   "version.glb", nullptr);
             ADD_FAILURE() << "extension version " << version << " accepted";
         } catch (const Error& e) {
-            EXPECT_NE(std::string(e.what()).find("/version: not 2"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("/version: not 3"), std::string::npos) << e.what();
         }
     }
     expect_rejected(mutated([&](Glb& g) { g.json["asset"]["version"] = "2.1"; }),

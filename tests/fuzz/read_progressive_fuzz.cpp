@@ -1,4 +1,4 @@
-// libFuzzer target: the progressive glTF reader (STRATA_progressive_mesh version 2) on arbitrary
+// libFuzzer target: the progressive glTF reader (STRATA_progressive_mesh version 3) on arbitrary
 // bytes (as a .glb; external buffers are refused). Only crashes, sanitizer reports, timeouts and
 // memory beyond libFuzzer's limit are findings: every exception is caught here (that the reader
 // throws nothing but strata::Error with a JSON pointer is checked by read_progressive_gltf_test).

@@ -1,7 +1,7 @@
 // Checks strata's progressive glTF files (STRATA_progressive_mesh + KHR_draco_mesh_compression)
 // with real clients from npm:
 //   node tests/node/check_progressive.mjs FILE.glb|FILE.gltf...
-// For each file (format version 2, schema/README.md; the reading code is web-viewer/strata-decode.js,
+// For each file (format version 3, schema/README.md; the reading code is web-viewer/strata-decode.js,
 // the plugin's own):
 //   [three]  three.js's GLTFLoader loads the file (Draco through a small in-process adapter on the
 //            draco3d decoder, see DracoAdapter): the "patient" root, one child per object, its base

@@ -54,7 +54,7 @@ function allowedIssues(json) {
     if (!progressive) {
         return allowed;
     }
-    // version 2: the DAG table and chunks views are named only by the extension, and the base
+    // version 2 and 3: the DAG table and chunks views are named only by the extension, and the base
     // meshes' Draco views only by KHR_draco_mesh_compression, which the validator does not read
     const fileExt = json.extensions?.[kAllowedExtension] ?? {};
     for (const view of [fileExt.dag, fileExt.chunks].filter((v) => v !== undefined)) {

@@ -203,8 +203,8 @@ std::size_t check_cut(ModelUnderTest& model,
         return mesh.triangles.size();
     }
     ++tally.cuts;
-    const test::CutErrorReport measured =
-        test::expect_valid_cut(mesh, model.reconstruction, model.index, model.genera, cut.error_px);
+    const test::CutErrorReport measured = test::expect_valid_cut(
+        mesh, model.reconstruction, model.index, model.genera, cut.error_px, cut.fine_error_px);
     if (cut.error_px > 0.0) {
         const double ratio = measured.max_px() / cut.error_px;
         tally.max_ratio = std::max(tally.max_ratio, ratio);

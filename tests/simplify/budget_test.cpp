@@ -195,7 +195,7 @@ void expect_counts(const Case& c, const std::vector<Reference>& references) {
             << "at " << ref.bound_px << " px";
         // fewer triangles must not come from a bound the cut does not keep
         EXPECT_LE(cut.error_px, std::max(ref.bound_px, m.full_resolution_error_px));
-        test::expect_valid_cut(mesh, r, 0, genera, cut.error_px);
+        test::expect_valid_cut(mesh, r, 0, genera, cut.error_px, cut.fine_error_px);
     }
 }
 

@@ -47,7 +47,8 @@ void check_cut(const Reconstruction& r,
                Tally& tally) {
     SCOPED_TRACE(what);
     const TriMesh mesh = cut_mesh(r.models[i], cut);
-    const test::CutErrorReport measured = test::expect_valid_cut(mesh, r, i, genera, cut.error_px);
+    const test::CutErrorReport measured =
+        test::expect_valid_cut(mesh, r, i, genera, cut.error_px, cut.fine_error_px);
     ++tally.cuts;
     if (cut.error_px > 0.0) {
         const double ratio = measured.max_px() / cut.error_px;

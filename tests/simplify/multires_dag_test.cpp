@@ -77,8 +77,8 @@ TEST(MultiresDag, CutsOfTorusAreClosedWithTheRightGenus) {
         EXPECT_LE(cut.error_px, std::max(tau, m.full_resolution_error_px));
         const TriMesh mesh = cut_mesh(m, cut);
         SCOPED_TRACE("tau " + std::to_string(tau));
-        const test::CutErrorReport measured =
-            test::expect_valid_cut(mesh, b.reconstruction, 0, genera, cut.error_px);
+        const test::CutErrorReport measured = test::expect_valid_cut(
+            mesh, b.reconstruction, 0, genera, cut.error_px, cut.fine_error_px);
         std::cout << "tau " << tau << ": declared " << cut.error_px << " measured "
                   << measured.max_section_px << " / cap " << measured.max_cap_px << " px, "
                   << mesh.triangles.size() << " triangles\n";
@@ -157,7 +157,7 @@ TEST(MultiresDag, GroupsShrinkToTheKeepFractionAtMost) {
         for (std::uint32_t level = 0; level < level_count(m); ++level) {
             SCOPED_TRACE("level " + std::to_string(level));
             const MultiresCut cut = select_cut_at_level(m, level);
-            test::expect_valid_cut(cut_mesh(m, cut), r, 0, genera, cut.error_px);
+            test::expect_valid_cut(cut_mesh(m, cut), r, 0, genera, cut.error_px, cut.fine_error_px);
         }
     }
 }
@@ -200,7 +200,7 @@ TEST(MultiresDag, ThinSpikeIsKeptWhileTheBoundIsShorterThanIt) {
         SCOPED_TRACE("level " + std::to_string(level));
         const MultiresCut cut = select_cut_at_level(m, level);
         const TriMesh mesh = cut_mesh(m, cut);
-        test::expect_valid_cut(mesh, r, 0, genera, cut.error_px);
+        test::expect_valid_cut(mesh, r, 0, genera, cut.error_px, cut.fine_error_px);
         // the spike's tip is a contour point: the surface must reach within the bound of it
         double reach = 0.0;
         for (const Vec3& p : mesh.positions) {
@@ -221,6 +221,45 @@ TEST(MultiresDag, RejectsKeepFractionOutsideZeroOne) {
         MultiresOptions options;
         options.keep_fraction = keep;
         EXPECT_THROW(build_multires_mesh(r.surfaces[0].mesh, meter, 0.5, options), Error) << keep;
+    }
+}
+
+TEST(MultiresDag, FineBoundsAreMonotoneAndLeaveOutTheFullResolutionBound) {
+    // The bound against the finest level never exceeds the slice bound and grows along the DAG.
+    // It leaves out the full-resolution surface's own bound: declared loose (3 px, as coarse
+    // voxels give), every group's slice bound is at least 3 px while some first-level group's
+    // bound against the finest level is below 90 % of its slice bound. Every level's cut is
+    // within its bound of every full-resolution vertex (and every cut of the tests above:
+    // expect_valid_cut).
+    const Built b = build("torus");
+    const Reconstruction& r = b.reconstruction;
+    const SliceErrorMeter meter(r.contours, r.fields, r.surfaces[0].label, r.slice_spacing_px);
+    MultiresOptions options;
+    options.cluster_triangles = 256;
+    const MultiresMesh m = build_multires_mesh(r.surfaces[0].mesh, meter, 3.0, options);
+    ASSERT_GT(m.groups.size(), 2u);
+    std::size_t level_one = 0;
+    for (const MultiresGroup& g : m.groups) {
+        EXPECT_LE(g.fine_error_px, g.error_px);
+        EXPECT_GE(g.error_px, 3.0);
+        EXPECT_GT(g.fine_error_px, 0.0);
+        for (const std::uint32_t c : g.consumed) {
+            const std::int32_t p = m.clusters[c].producer;
+            if (p >= 0) {
+                EXPECT_GE(g.fine_error_px, m.groups[std::size_t(p)].fine_error_px);
+            }
+        }
+        if (g.level == 1 && g.fine_error_px < 0.9 * g.error_px) {
+            ++level_one;
+        }
+    }
+    EXPECT_GT(level_one, 0u) << "no first-level group below 90 % of its slice bound";
+    // and every cut within its bound of every full-resolution vertex
+    for (std::uint32_t level = 0; level < level_count(m); ++level) {
+        const MultiresCut cut = select_cut_at_level(m, level);
+        EXPECT_LE(test::max_point_distance_px(r.surfaces[0].mesh.positions, cut_mesh(m, cut)),
+                  cut.fine_error_px + 1e-9)
+            << "level " << level;
     }
 }
 
@@ -246,6 +285,7 @@ TEST(MultiresDag, IdenticalForAnyThreadCount) {
     }
     for (std::size_t g = 0; g < a.groups.size(); ++g) {
         EXPECT_EQ(a.groups[g].error_px, b.groups[g].error_px) << "group " << g;
+        EXPECT_EQ(a.groups[g].fine_error_px, b.groups[g].fine_error_px) << "group " << g;
         EXPECT_EQ(a.groups[g].consumed, b.groups[g].consumed) << "group " << g;
     }
 }

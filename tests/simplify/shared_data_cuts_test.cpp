@@ -150,6 +150,15 @@ void check_stack(const SliceStack& stack, const std::string& name, int random_cu
         for (std::size_t c = 0; c < model.clusters.size(); ++c) {
             ASSERT_EQ(read.clusters[c].triangles.size(), model.clusters[c].triangles.size());
         }
+        // the file's bounds against the finest level are the model's, rounded up with its errors
+        // (3 significant digits: less than 1 % each)
+        for (std::size_t g = 0; g < model.groups.size(); ++g) {
+            EXPECT_LE(read.groups[g].fine_error_px, read.groups[g].error_px) << "group " << g;
+            EXPECT_GE(
+                read.groups[g].fine_error_px * (model.groups[g].error_px / read.groups[g].error_px),
+                model.groups[g].fine_error_px * 0.989)
+                << "group " << g;
+        }
         const std::vector<int> genera = test::sorted_genera(check_mesh(r.surfaces[i].mesh));
         expect_no_fold_added(model);
         std::vector<std::pair<std::string, MultiresCut>> cuts;
@@ -210,6 +219,10 @@ void check_stack(const SliceStack& stack, const std::string& name, int random_cu
                 in_memory.error_px =
                     std::max(in_memory.error_px, p < 0 ? model.full_resolution_error_px
                                                        : model.groups[std::size_t(p)].error_px);
+                if (p >= 0) {
+                    in_memory.fine_error_px = std::max(in_memory.fine_error_px,
+                                                       model.groups[std::size_t(p)].fine_error_px);
+                }
             }
             const TriMesh mesh = cut_mesh(model, in_memory);
             ASSERT_EQ(mesh.triangles.size(), storage.triangles.size());
@@ -220,6 +233,9 @@ void check_stack(const SliceStack& stack, const std::string& name, int random_cu
             EXPECT_LE(measured.max_px(), in_memory.error_px + 1e-9)
                 << "section " << measured.max_section_px << " px, cap " << measured.max_cap_px
                 << " px, coverage " << measured.max_coverage_px << " px";
+            // every full-resolution vertex within the bound against the finest level
+            EXPECT_LE(test::max_point_distance_px(r.surfaces[i].mesh.positions, mesh),
+                      in_memory.fine_error_px + 1e-9);
         }
     }
 }

@@ -58,13 +58,16 @@ inline void expect_embedded_surface(const TriMesh& mesh, const std::vector<int>&
 /// Expects `mesh`, a cut of the model of surface `i` of `r` declaring `declared_px`, to be a
 /// closed oriented manifold with the sorted component genera `genera`, positive volume and no
 /// self-intersection (exact), within `declared_px` of the original contours by the oracle, and
-/// within it of every vertex of the full-resolution surface `r.surfaces[i]`.
+/// within it, and within `declared_fine_px` (its bound against the finest level, when given), of
+/// every vertex of the full-resolution surface `r.surfaces[i]`.
 /// Returns the oracle's measurement.
-inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
-                                       const Reconstruction& r,
-                                       std::size_t i,
-                                       const std::vector<int>& genera,
-                                       double declared_px) {
+inline CutErrorReport expect_valid_cut(
+    const TriMesh& mesh,
+    const Reconstruction& r,
+    std::size_t i,
+    const std::vector<int>& genera,
+    double declared_px,
+    double declared_fine_px = std::numeric_limits<double>::infinity()) {
     expect_embedded_surface(mesh, genera);
     const CutErrorReport measured =
         measure_cut_error(mesh, r.contours, r.surfaces[i].label, r.slice_spacing_px);
@@ -76,8 +79,11 @@ inline CutErrorReport expect_valid_cut(const TriMesh& mesh,
         << ", " << measured.worst_point.y << ")";
     // and every vertex of the full-resolution surface, domes beyond the end slices included
     // (which no section sees), within the bound of the cut
-    EXPECT_LE(max_point_distance_px(r.surfaces[i].mesh.positions, mesh), declared_px + 1e-9)
+    const double fine = max_point_distance_px(r.surfaces[i].mesh.positions, mesh);
+    EXPECT_LE(fine, declared_px + 1e-9)
         << "a full-resolution vertex lies farther from the cut than its bound";
+    EXPECT_LE(fine, declared_fine_px + 1e-9)
+        << "a full-resolution vertex lies farther from the cut than its finest-level bound";
     return measured;
 }
 

@@ -25,7 +25,7 @@ function encodeTable({ clusterCount, idBytes = 2, groups, magic = 'SDAG', paddin
         view.setUint16(r + 24, g.consumedCount ?? g.consumed.length, true);
         view.setUint16(r + 26, g.producedCount ?? g.produced.length, true);
         view.setUint16(r + 28, g.level, true);
-        view.setUint16(r + 30, g.reserved ?? 0, true);
+        view.setUint16(r + 30, g.fine ?? 0, true);
     });
     let o = 16 + 32 * groups.length;
     for (const g of groups) {
@@ -41,7 +41,17 @@ function encodeTable({ clusterCount, idBytes = 2, groups, magic = 'SDAG', paddin
 /// The schema's example: clusters 0 and 1 consumed by group 0, which produced root cluster 2.
 const kExample = {
     clusterCount: 3,
-    groups: [{ sphere: [0, 0, 0, 1], chunkOffset: 0, chunkLength: 100, consumed: [0, 1], produced: [2], level: 1 }],
+    groups: [
+        {
+            sphere: [0, 0, 0, 1],
+            chunkOffset: 0,
+            chunkLength: 100,
+            consumed: [0, 1],
+            produced: [2],
+            level: 1,
+            fine: 21845,
+        },
+    ],
 };
 const kInfo = { errors: [0.0009], fullResolutionError: 0.00035, gridStep: 0.0078125 };
 
@@ -60,6 +70,8 @@ test('DAG table: the schema example decodes to the links, levels and spheres it 
         assert.deepEqual(table.groups[0].consumed, [0, 1]);
         assert.deepEqual(table.groups[0].produced, [2]);
         assert.equal(table.groups[0].error, 0.0009);
+        // fine 21845 of 65535: a third of the error (0.3 mm) against the finest level
+        assert.ok(Math.abs(table.groups[0].fineError - 0.0003) < 1e-15, `${table.groups[0].fineError}`);
         assert.deepEqual(table.clusters[0].sphere, [0, 0, 0, 1]);
         assert.equal(table.fullResolutionError, 0.00035);
     }
@@ -85,7 +97,7 @@ test('DAG table: every validation rule rejects its violation', () => {
     bad(() => null, /2 groups but 1 errors/, { infoChange: { errors: [0.001] } });
     bad((s) => encodeTable({ ...s, padding: 4 }), /bytes, expected/);
     bad((s) => void (s.groups[0].level = 0), /level 0/);
-    bad((s) => void (s.groups[0].reserved = 1), /reserved/);
+    bad((s) => void (s.groups[0].fine = 65535), /bound against the finest level .* below its child/);
     bad((s) => void (s.groups[1].produced = [4]), /cluster id 4 .* expected < 4/);
     bad((s) => void (s.groups[1].consumed = [1]), /cluster 1 consumed by groups 0 and 1/);
     bad((s) => void (s.groups[1].produced = [2]), /cluster 2 produced by groups 0 and 1/);

@@ -40,7 +40,7 @@ const kTrials = Number(process.env.STRATA_VIEWER_TRIALS ?? 300);
 // ------------------------------------------------------------------------------------------------
 // the model
 
-/// Reads a model (format version 2) and decodes all of it with draco3d: per object the DAG table
+/// Reads a model (format version 3) and decodes all of it with draco3d: per object the DAG table
 /// (as buildDag reads it), and per cluster its triangles as position keys (exact float values).
 async function readModel(file) {
     const bytes = new Uint8Array(readFileSync(file));
@@ -315,9 +315,9 @@ function oracleDrawn(ext, refined) {
     return out;
 }
 
-/// The spec's screen-space predicate for one group (its JSON sphere and error): in the frustum
-/// (sphere not wholly behind a plane) and sse * factor / tau > 1, sse = error * H / (d * 2 tan(fovy /
-/// 2)), d = |camera - centre| - radius (infinite error at d <= 0), factor = roi.factor where the
+/// The spec's screen-space predicate for one group (its sphere and its bound against the finest
+/// level, error * fine / 65535, which the viewer projects): in the frustum (sphere not wholly
+/// behind a plane) and sse * factor / tau > 1, sse = e * H / (d * 2 tan(fovy / 2)), d = |camera - centre| - radius (infinite error at d <= 0), factor = roi.factor where the
 /// sphere meets the region of interest.
 function oracleWants(group, view, tauPx, roi, frustum) {
     const [x, y, z, r] = group.sphere;
@@ -325,8 +325,9 @@ function oracleWants(group, view, tauPx, roi, frustum) {
         if (nx * x + ny * y + nz * z + d < -r) return false;
     }
     const d = Math.hypot(view.position[0] - x, view.position[1] - y, view.position[2] - z) - r;
-    const sse =
-        d > 0 ? (group.error * view.heightPx) / (d * 2 * Math.tan(view.fovy / 2)) : group.error > 0 ? Infinity : 0;
+    const e = group.fineError;
+    assert.ok(e >= 0 && e <= group.error, `bound against the finest level ${e}, error ${group.error}`);
+    const sse = d > 0 ? (e * view.heightPx) / (d * 2 * Math.tan(view.fovy / 2)) : e > 0 ? Infinity : 0;
     const inRoi = roi && Math.hypot(x - roi.center[0], y - roi.center[1], z - roi.center[2]) <= r + roi.radius;
     const factor = inRoi && roi.factor > 1 ? roi.factor : 1;
     return (sse * factor) / tauPx > 1;
