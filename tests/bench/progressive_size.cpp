@@ -3,12 +3,14 @@
 //
 //   progressive_size [--case SPEC]... [--sweep-case SPEC]... [--sweep-keep 0.25,0.35]
 //                    [--sweep-clusters 1024,2048] [--cluster-triangles N] [--keep-fraction F]
+//                    [--root-triangles N]
 //                    [--gltfpack EXE] [--work DIR]
 //
 // SPEC: `phantom:NAME` (make_phantom) or `stack:PATH` (read_slice_stack); every non-zero label is
 // an object, as in `strata build`.
 //
-// For each --case: `reconstruct` (default options, or --cluster-triangles / --keep-fraction) and,
+// For each --case: `reconstruct` (default options, or --cluster-triangles / --keep-fraction /
+// --root-triangles) and,
 // like `strata build`, write_progressive_gltf of every object on a grid into WORK/model.glb. Its
 // bytes (ProgressiveStats): total (the .glb: a full download, i.e. full resolution); base (GLB
 // header, JSON, DAG tables and base meshes: what a first frame needs) and its share; the JSON per
@@ -88,6 +90,7 @@ struct Arguments {
     std::vector<std::size_t> sweep_clusters{1024, 2048};
     std::size_t cluster_triangles = MultiresOptions{}.cluster_triangles;
     double keep_fraction = MultiresOptions{}.keep_fraction;
+    std::size_t root_triangles = MultiresOptions{}.root_triangles;
     std::string gltfpack;
     std::filesystem::path work;
 };
@@ -96,7 +99,8 @@ std::string usage() {
     return "usage: progressive_size [--case phantom:NAME | --case stack:PATH]...\n"
            "                        [--sweep-case SPEC]... [--sweep-keep 0.25,0.35]\n"
            "                        [--sweep-clusters 1024,2048] [--cluster-triangles N]\n"
-           "                        [--keep-fraction F] [--gltfpack EXE] [--work DIR]\n";
+           "                        [--keep-fraction F] [--root-triangles N] [--gltfpack EXE] "
+           "[--work DIR]\n";
 }
 
 std::size_t parse_count(const std::string& text, const std::string& what) {
@@ -166,6 +170,8 @@ Arguments parse_arguments(int argc, char** argv) {
             args.cluster_triangles = parse_count(value(i), "--cluster-triangles");
         } else if (arg == "--keep-fraction") {
             args.keep_fraction = parse_fraction(value(i), "--keep-fraction");
+        } else if (arg == "--root-triangles") {
+            args.root_triangles = parse_count(value(i), "--root-triangles");
         } else if (arg == "--gltfpack") {
             args.gltfpack = value(i);
         } else if (arg == "--work") {
@@ -920,6 +926,7 @@ void run_case(const std::string& spec,
     ReconstructOptions options;
     options.multires.cluster_triangles = args.cluster_triangles;
     options.multires.keep_fraction = args.keep_fraction;
+    options.multires.root_triangles = args.root_triangles;
     Report report;
     Reconstruction result = reconstruct(c.stack, options, report);
     const Objects objects = progressive_objects(result, notes, c.name);
