@@ -549,7 +549,11 @@ private:
     /// triangle is another triangle of M or one beside the star (without u, unchanged by the
     /// collapse) around its first end. The piece is an oriented manifold (check_edges, and the
     /// link condition keeps it one), so an edge has at most two triangles.
-    std::size_t folds(std::uint32_t u, std::uint32_t v, bool after) const {
+    /// Counting stops above `limit` (the count returned is then limit + 1).
+    std::size_t folds(std::uint32_t u,
+                      std::uint32_t v,
+                      bool after,
+                      std::size_t limit = std::numeric_limits<std::size_t>::max()) const {
         std::vector<FoldTriangle>& star = fold_star_;
         star.clear();
         for (const std::uint32_t t : vertex_triangles_[u]) {
@@ -593,8 +597,8 @@ private:
                         }
                     }
                 }
-                if (other != nullptr && dot(star[i].normal, *other) < 0.0) {
-                    ++count;
+                if (other != nullptr && dot(star[i].normal, *other) < 0.0 && ++count > limit) {
+                    return count;
                 }
             }
         }
@@ -602,8 +606,13 @@ private:
     }
 
     /// True when collapsing u onto v adds a fold.
+    /// note: the count before does not depend on v and nothing changes between two collapses,
+    /// so the candidates of one vertex count it once.
     bool adds_fold(std::uint32_t u, std::uint32_t v) const {
-        return folds(u, v, true) > folds(u, v, false);
+        if (folds_before_.vertex != u || folds_before_.collapses != collapses_) {
+            folds_before_ = {u, collapses_, folds(u, v, false)};
+        }
+        return folds(u, v, true, folds_before_.count) > folds_before_.count;
     }
 
     /// Cost of collapsing u onto v (max error bound of the changed triangles, with the distances
@@ -841,6 +850,7 @@ private:
     }
 
     void apply(std::uint32_t u, std::uint32_t v) {
+        ++collapses_;
         // note: only the stars of u's neighbours change (positions never move), so only their
         // candidates need new costs.
         const std::vector<std::uint32_t> touched = neighbours(u);
@@ -936,6 +946,14 @@ private:
         Vec3 normal;
     };
     mutable std::vector<FoldTriangle> fold_star_;  ///< scratch of folds()
+    /// Collapses applied so far, and the fold count before collapsing `vertex` at `collapses`.
+    std::size_t collapses_ = 0;
+    struct FoldsBefore {
+        std::uint32_t vertex = kNone;
+        std::size_t collapses = 0;
+        std::size_t count = 0;
+    };
+    mutable FoldsBefore folds_before_;  ///< see adds_fold()
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     /// Candidates whose cost is read: more than the floor each.

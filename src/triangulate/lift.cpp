@@ -192,19 +192,27 @@ std::vector<std::array<double, 2>> LabelSurface::wedge_level_costs(
                                                   : 0.5;  // another crossing: unknown
         }
         const double area = 0.5 * std::abs(cross(xy[1] - xy[0], xy[2] - xy[0]));
+        // the centroid and the points (4, 1, 1) / 6 towards each corner, with t read there once
+        // for both levels
+        std::array<std::array<double, 3>, 4> samples{};
+        std::array<double, 4> sample_t{};
+        for (std::size_t sample = 0; sample < 4; ++sample) {
+            std::array<double, 3>& b = samples[sample];
+            b = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+            if (sample < 3) {
+                b = {1.0 / 6, 1.0 / 6, 1.0 / 6};
+                b[sample] = 4.0 / 6;
+            }
+            const Vec2 q = b[0] * xy[0] + b[1] * xy[1] + b[2] * xy[2];
+            sample_t[sample] = height_t(to_point(q), k);
+        }
         for (int level = 0; level < 2; ++level) {
             h[std::size_t(vi)] = level;
             double sum = 0.0;
-            for (int sample = 0; sample < 4; ++sample) {
-                // the centroid and the points (4, 1, 1) / 6 towards each corner
-                std::array<double, 3> b{1.0 / 3, 1.0 / 3, 1.0 / 3};
-                if (sample < 3) {
-                    b = {1.0 / 6, 1.0 / 6, 1.0 / 6};
-                    b[std::size_t(sample)] = 4.0 / 6;
-                }
-                const Vec2 q = b[0] * xy[0] + b[1] * xy[1] + b[2] * xy[2];
+            for (std::size_t sample = 0; sample < 4; ++sample) {
+                const std::array<double, 3>& b = samples[sample];
                 const double face_t = b[0] * h[0] + b[1] * h[1] + b[2] * h[2];
-                const double diff = face_t - height_t(to_point(q), k);
+                const double diff = face_t - sample_t[sample];
                 sum += diff * diff;
             }
             cost[j][std::size_t(level)] = area * sum / 4.0;
