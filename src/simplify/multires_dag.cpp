@@ -218,10 +218,11 @@ public:
             // covers the rounding of both)
             const Box& b = boxes_[t];
             const double la = box_distance(piece.a, b) - kBoxSlackPx;
-            const double lb = box_distance(piece.b, b) - kBoxSlackPx;
-            if (la >= nearest_a && lb >= nearest_b &&
-                piece.deviation_px + std::max(la, lb) >= best) {
-                return;
+            if (la >= nearest_a) {
+                const double lb = box_distance(piece.b, b) - kBoxSlackPx;
+                if (lb >= nearest_b && piece.deviation_px + std::max(la, lb) >= best) {
+                    return;
+                }
             }
             const std::array<Vec3, 3> c = corners(t);
             const double da = point_triangle_distance_px(piece.a, c);
@@ -248,13 +249,15 @@ public:
                 offer(t);
             }
         }
+        // note: a triangle offered once is not offered again for a wider box (what it could
+        // change it did: `best` and the nearest ends only decrease)
+        ++query_;
         for (double r = 1.0; best - piece.deviation_px > kPieceFitPx; r *= 2.0) {
             Vec3 lo = piece.a, hi = piece.a;
             for (int a = 0; a < 3; ++a) {
                 lo[a] = std::min(piece.a[a], piece.b[a]) - r;
                 hi[a] = std::max(piece.a[a], piece.b[a]) + r;
             }
-            ++query_;
             grid_.query({lo, hi, hi}, [&](std::uint32_t t) {
                 if (seen_[t] == query_) {
                     return;
