@@ -384,30 +384,50 @@ export function resolveSlots(positions, index, slot, where = 'chunk') {
     const x = (v) => positions[3 * first[v]];
     const y = (v) => positions[3 * first[v] + 1];
     const z = (v) => positions[3 * first[v] + 2];
-    // target[v]: the neighbour a collapsed vertex points to
+    // target[v]: the neighbour a collapsed vertex points to. note: the hot loop of attaching a
+    // chunk (most vertices collapse), so each neighbour list is deduplicated and ordered in place
+    // in one scratch array, by insertion (lists are short), without allocating
     const target = new Int32Array(count).fill(-1);
+    let list = new Uint32Array(64);
     for (let v = 0; v < count; ++v) {
         const s = vslot[v];
         if (s === 0) continue;
-        const list = [...new Set(adjacent.subarray(degree[v], degree[v + 1]))];
         const vx = x(v);
         const vy = y(v);
         const vz = z(v);
-        const length = (u) => {
-            const dx = x(u) - vx;
-            const dy = y(u) - vy;
-            const dz = z(u) - vz;
-            return dx * dx + dy * dy + dz * dz;
+        // before(a, b): a comes first (survivors, then shorter edges, then smaller x, y, z)
+        const before = (a, b) => {
+            const sa = vslot[a] === 0 ? 0 : 1;
+            const sb = vslot[b] === 0 ? 0 : 1;
+            if (sa !== sb) return sa < sb;
+            const ax = x(a) - vx;
+            const ay = y(a) - vy;
+            const az = z(a) - vz;
+            const bx = x(b) - vx;
+            const by = y(b) - vy;
+            const bz = z(b) - vz;
+            const la = ax * ax + ay * ay + az * az;
+            const lb = bx * bx + by * by + bz * bz;
+            if (la !== lb) return la < lb;
+            if (x(a) !== x(b)) return x(a) < x(b);
+            if (y(a) !== y(b)) return y(a) < y(b);
+            return z(a) < z(b);
         };
-        list.sort(
-            (a, b) =>
-                (vslot[a] === 0 ? 0 : 1) - (vslot[b] === 0 ? 0 : 1) ||
-                length(a) - length(b) ||
-                x(a) - x(b) ||
-                y(a) - y(b) ||
-                z(a) - z(b),
-        );
-        if (s > list.length) throw new Error(`${where}: slot ${s} of a vertex with ${list.length} neighbours`);
+        if (degree[v + 1] - degree[v] > list.length) list = new Uint32Array(2 * (degree[v + 1] - degree[v]));
+        let n = 0;
+        for (let i = degree[v]; i < degree[v + 1]; ++i) {
+            const u = adjacent[i];
+            let j = 0;
+            while (j < n && list[j] !== u) ++j;
+            if (j < n) continue; // a duplicate
+            j = n++;
+            while (j > 0 && before(u, list[j - 1])) {
+                list[j] = list[j - 1];
+                --j;
+            }
+            list[j] = u;
+        }
+        if (s > n) throw new Error(`${where}: slot ${s} of a vertex with ${n} neighbours`);
         target[v] = list[s - 1];
     }
     // follow the chains to a survivor (state: 0 unknown, 1 on the current chain, 2 resolved)
