@@ -381,9 +381,32 @@ export function resolveSlots(positions, index, slot, where = 'chunk') {
         adjacent[fill[c]++] = a;
         adjacent[fill[c]++] = b;
     }
-    const x = (v) => positions[3 * first[v]];
-    const y = (v) => positions[3 * first[v] + 1];
-    const z = (v) => positions[3 * first[v] + 2];
+    // each vertex's coordinates (float32 values as binary64, read once)
+    const xyz = new Float64Array(3 * count);
+    for (let v = 0; v < count; ++v) {
+        xyz[3 * v] = positions[3 * first[v]];
+        xyz[3 * v + 1] = positions[3 * first[v] + 1];
+        xyz[3 * v + 2] = positions[3 * first[v] + 2];
+    }
+    // before(a, b) around v at (vx, vy, vz): a comes first (survivors, then shorter edges, then
+    // smaller x, y, z)
+    const before = (a, b, vx, vy, vz) => {
+        const sa = vslot[a] === 0 ? 0 : 1;
+        const sb = vslot[b] === 0 ? 0 : 1;
+        if (sa !== sb) return sa < sb;
+        const ax = xyz[3 * a] - vx;
+        const ay = xyz[3 * a + 1] - vy;
+        const az = xyz[3 * a + 2] - vz;
+        const bx = xyz[3 * b] - vx;
+        const by = xyz[3 * b + 1] - vy;
+        const bz = xyz[3 * b + 2] - vz;
+        const la = ax * ax + ay * ay + az * az;
+        const lb = bx * bx + by * by + bz * bz;
+        if (la !== lb) return la < lb;
+        if (xyz[3 * a] !== xyz[3 * b]) return xyz[3 * a] < xyz[3 * b];
+        if (xyz[3 * a + 1] !== xyz[3 * b + 1]) return xyz[3 * a + 1] < xyz[3 * b + 1];
+        return xyz[3 * a + 2] < xyz[3 * b + 2];
+    };
     // target[v]: the neighbour a collapsed vertex points to. note: the hot loop of attaching a
     // chunk (most vertices collapse), so each neighbour list is deduplicated and ordered in place
     // in one scratch array, by insertion (lists are short), without allocating
@@ -392,27 +415,9 @@ export function resolveSlots(positions, index, slot, where = 'chunk') {
     for (let v = 0; v < count; ++v) {
         const s = vslot[v];
         if (s === 0) continue;
-        const vx = x(v);
-        const vy = y(v);
-        const vz = z(v);
-        // before(a, b): a comes first (survivors, then shorter edges, then smaller x, y, z)
-        const before = (a, b) => {
-            const sa = vslot[a] === 0 ? 0 : 1;
-            const sb = vslot[b] === 0 ? 0 : 1;
-            if (sa !== sb) return sa < sb;
-            const ax = x(a) - vx;
-            const ay = y(a) - vy;
-            const az = z(a) - vz;
-            const bx = x(b) - vx;
-            const by = y(b) - vy;
-            const bz = z(b) - vz;
-            const la = ax * ax + ay * ay + az * az;
-            const lb = bx * bx + by * by + bz * bz;
-            if (la !== lb) return la < lb;
-            if (x(a) !== x(b)) return x(a) < x(b);
-            if (y(a) !== y(b)) return y(a) < y(b);
-            return z(a) < z(b);
-        };
+        const vx = xyz[3 * v];
+        const vy = xyz[3 * v + 1];
+        const vz = xyz[3 * v + 2];
         if (degree[v + 1] - degree[v] > list.length) list = new Uint32Array(2 * (degree[v + 1] - degree[v]));
         let n = 0;
         for (let i = degree[v]; i < degree[v + 1]; ++i) {
@@ -421,7 +426,7 @@ export function resolveSlots(positions, index, slot, where = 'chunk') {
             while (j < n && list[j] !== u) ++j;
             if (j < n) continue; // a duplicate
             j = n++;
-            while (j > 0 && before(u, list[j - 1])) {
+            while (j > 0 && before(u, list[j - 1], vx, vy, vz)) {
                 list[j] = list[j - 1];
                 --j;
             }
