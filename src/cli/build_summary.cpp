@@ -82,6 +82,7 @@ std::vector<ObjectSummary> summarize_objects(const SliceStack& stack,
 }
 
 SurfaceSummary summarize_surface(const ObjectSurface& surface,
+                                 const RepairRecord& repairs,
                                  const MeshReport& check,
                                  const std::filesystem::path& file) {
     SurfaceSummary s;
@@ -96,10 +97,10 @@ SurfaceSummary summarize_surface(const ObjectSurface& surface,
     s.slabs = surface.slabs;
     s.caps = surface.caps;
     s.steiner_points = surface.steiner_points;
-    s.fallback_corner_slices = surface.at_corners.size();
-    s.fallback_partly_unsimplified_slices = surface.partly_unsimplified.size();
-    s.fallback_unsimplified_slices = surface.unsimplified_slices;
-    s.fallback_split_slabs = surface.split_slabs;
+    s.fallback_corner_slices = repairs.corner_slices.size();
+    s.fallback_partly_unsimplified_slices = repairs.near_neighbour_slices.size();
+    s.fallback_unsimplified_slices = std::uint32_t(repairs.original_slices.size());
+    s.fallback_split_slabs = repairs.split_slabs;
     s.verified = surface.verification.ok();
     s.topology_mismatches = surface.topology_mismatches;
     s.failed_slabs = surface.failed_slabs;

@@ -153,9 +153,10 @@ std::vector<ObjectSummary> summarize_objects(const SliceStack& stack,
                                              const Reconstruction& result,
                                              const std::vector<LabelContourStats>& contour_stats);
 
-/// A surface's counts and fallbacks, with `check` of its mesh in patient LPS mm written to
-/// `file` (levels and groups left to the caller).
+/// A surface's counts, the repair steps taken on it (`repairs`), with `check` of its mesh in
+/// patient LPS mm written to `file` (levels and groups left to the caller).
 SurfaceSummary summarize_surface(const ObjectSurface& surface,
+                                 const RepairRecord& repairs,
                                  const MeshReport& check,
                                  const std::filesystem::path& file);
 

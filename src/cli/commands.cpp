@@ -412,7 +412,7 @@ std::vector<SceneObject> write_surface_meshes(const BuildOptions& options,
                 object.mesh, out.staged(mesh_file),
                 options.mesh_format == "stl" ? std::vector<Vec3>{} : shading_normals(object.mesh));
         }
-        SurfaceSummary s = summarize_surface(surface, check, mesh_file);
+        SurfaceSummary s = summarize_surface(surface, result.repairs[i], check, mesh_file);
         if (i < result.models.size()) {
             s.levels = summarize_levels(result.models[i], mm_per_px);
             s.groups = result.models[i].groups.size();

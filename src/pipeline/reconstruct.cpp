@@ -183,6 +183,7 @@ struct LabelBatch {
     std::vector<SliceDistanceFields> fields;
     std::vector<MedialAxis> axes;
     std::vector<ObjectSurface> surfaces;
+    std::vector<RepairRecord> repairs;
     std::vector<MultiresMesh> models;
 };
 
@@ -252,8 +253,10 @@ void triangulate_batch(const SliceStack& stack,
     if (!batch.triangulate_options.progress) {
         batch.triangulate_options.progress = batch.progress;
     }
-    batch.surfaces = triangulate_with_repairs(stack, result.contours, batch.fields, batch.axes,
-                                              batch.triangulate_options);
+    RepairedSurfaces repaired = triangulate_with_repairs(stack, result.contours, batch.fields,
+                                                         batch.axes, batch.triangulate_options);
+    batch.surfaces = std::move(repaired.surfaces);
+    batch.repairs = std::move(repaired.repairs);
     clock.done("triangulate");
 }
 
@@ -274,6 +277,7 @@ void rebuild_batch_at_corners(const SliceStack& stack,
     part.fields = std::move(batch.fields);
     part.medial_axes = std::move(batch.axes);
     part.surfaces = std::move(batch.surfaces);
+    part.repairs = std::move(batch.repairs);
     part.slice_spacing_px = result.slice_spacing_px;
     std::vector<std::string> part_unsnapped(
         run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first),
@@ -287,6 +291,7 @@ void rebuild_batch_at_corners(const SliceStack& stack,
     batch.fields = std::move(part.fields);
     batch.axes = std::move(part.medial_axes);
     batch.surfaces = std::move(part.surfaces);
+    batch.repairs = std::move(part.repairs);
     std::copy(part_unsnapped.begin(), part_unsnapped.end(),
               run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first));
     std::move(part_report.warnings.begin(), part_report.warnings.end(),
@@ -370,6 +375,7 @@ void simplify_batch(const ReconstructOptions& options,
 /// Moves the batch's results after those of the batches before it.
 void append_batch(Reconstruction& result, LabelBatch& batch) {
     std::move(batch.surfaces.begin(), batch.surfaces.end(), std::back_inserter(result.surfaces));
+    std::move(batch.repairs.begin(), batch.repairs.end(), std::back_inserter(result.repairs));
     std::move(batch.models.begin(), batch.models.end(), std::back_inserter(result.models));
     merge_medial_axes(result.medial_axes, std::move(batch.axes));
     if (result.fields.empty()) {

@@ -11,6 +11,7 @@
 #include "distance/distance_field.h"
 #include "input/slice_stack.h"
 #include "medial/medial_axis.h"
+#include "pipeline/repair_record.h"
 #include "quantize/snap_to_grid.h"
 #include "simplify/multires_dag.h"
 #include "triangulate/reference_topology.h"
@@ -83,6 +84,7 @@ struct Reconstruction {
     std::vector<SliceDistanceFields> fields;  ///< one per slice (emptied unless keep_fields)
     std::vector<MedialAxis> medial_axes;      ///< one per consecutive slice pair
     std::vector<ObjectSurface> surfaces;      ///< one closed surface per label, slice space
+    std::vector<RepairRecord> repairs;        ///< per surface: the repair steps taken on it
     std::vector<MultiresMesh> models;         ///< per surface (when simplified), slice space
     double slice_spacing_px = 1.0;            ///< d of the slice-space surfaces
     std::vector<StageTiming> timings;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <vector>
@@ -503,6 +504,7 @@ Reconstruction reconstruct_contours(const PlanarContours& contours,
             }
             result.surfaces.push_back(std::move(surface));
         }
+        std::move(part.repairs.begin(), part.repairs.end(), std::back_inserter(result.repairs));
         for (MultiresMesh& model : part.models) {
             // The bounds are against the traced pixel boundary; it lies within half a pixel
             // diagonal of the polygons (a boundary edge separates an inside pixel centre from an

@@ -81,13 +81,15 @@ static_assert(kSliceRepairs[0].first == kRepairPolicy[0].step &&
 constexpr int kSliceRepairAttempts = 4;
 
 /// One label's surface with the repairs of its mismatched slabs (kCornerVertices ..
-/// kSplitAtAndLayer), recorded in the surface.
+/// kSplitAtAndLayer), recorded in `record`.
 ObjectSurface triangulate_label_with_repairs(const SliceStack& stack,
                                              const SliceContours& contours,
                                              const std::vector<SliceDistanceFields>& fields,
                                              const std::vector<MedialAxis>& medial_axes,
                                              const TriangulateOptions& options,
-                                             std::uint16_t label) {
+                                             std::uint16_t label,
+                                             RepairRecord& record) {
+    record.label = label;
     LabelTriangulation built = triangulate_label(contours, fields, medial_axes, options, label);
     if (built.mismatched_slabs.empty()) {
         return std::move(built.surface);
@@ -121,23 +123,22 @@ ObjectSurface triangulate_label_with_repairs(const SliceStack& stack,
         surface =
             triangulate_label_split(stack, repaired, fields, medial_axes, options, label, split)
                 .surface;
-        surface.split_slabs = std::uint32_t(built.mismatched_slabs.size());
+        record.split_slabs = std::uint32_t(built.mismatched_slabs.size());
     } else {
         surface = std::move(built.surface);
     }
     for (std::uint32_t k = 0; k < tried.size(); ++k) {
         if (tried[k] > 2) {
-            surface.unsimplified.push_back(k);
+            record.original_slices.push_back(k);
             continue;
         }
         if (tried[k] > 0) {
-            surface.at_corners.push_back(k);
+            record.corner_slices.push_back(k);
         }
         if (tried[k] > 1) {
-            surface.partly_unsimplified.push_back(k);
+            record.near_neighbour_slices.push_back(k);
         }
     }
-    surface.unsimplified_slices = std::uint32_t(surface.unsimplified.size());
     return surface;
 }
 
@@ -226,25 +227,27 @@ bool unsimplify_near_neighbours(SliceContourSet& set,
     return changed;
 }
 
-std::vector<ObjectSurface> triangulate_with_repairs(const SliceStack& stack,
-                                                    const SliceContours& contours,
-                                                    const std::vector<SliceDistanceFields>& fields,
-                                                    const std::vector<MedialAxis>& medial_axes,
-                                                    const TriangulateOptions& options) {
+RepairedSurfaces triangulate_with_repairs(const SliceStack& stack,
+                                          const SliceContours& contours,
+                                          const std::vector<SliceDistanceFields>& fields,
+                                          const std::vector<MedialAxis>& medial_axes,
+                                          const TriangulateOptions& options) {
     const std::vector<std::uint16_t> labels =
         options.labels.empty() ? contour_labels(contours) : options.labels;
-    std::vector<ObjectSurface> surfaces(labels.size());
+    RepairedSurfaces result;
+    result.surfaces.resize(labels.size());
+    result.repairs.resize(labels.size());
     std::atomic<std::size_t> done{0};
     std::mutex progress_mutex;
     parallel_for(labels.size(), options.threads, [&](std::size_t i) {
-        surfaces[i] = triangulate_label_with_repairs(stack, contours, fields, medial_axes, options,
-                                                     labels[i]);
+        result.surfaces[i] = triangulate_label_with_repairs(stack, contours, fields, medial_axes,
+                                                            options, labels[i], result.repairs[i]);
         if (options.progress) {
             const std::lock_guard lock(progress_mutex);
             options.progress("objects", ++done, labels.size());
         }
     });
-    return surfaces;
+    return result;
 }
 
 std::string quantize_with_repairs(const SliceStack& stack,
@@ -366,12 +369,14 @@ void rebuild_at_corners(const SliceStack& stack,
         again.labels.push_back(result.surfaces[i].label);
     }
     result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
-    std::vector<ObjectSurface> rebuilt =
+    RepairedSurfaces rebuilt =
         triangulate_with_repairs(stack, result.contours, result.fields, result.medial_axes, again);
     for (std::size_t j = 0; j < redo.size(); ++j) {
         const std::size_t i = redo[j];
         const std::string first_try = unsnapped[i];
-        result.surfaces[i] = std::move(rebuilt[j]);
+        result.surfaces[i] = std::move(rebuilt.surfaces[j]);
+        result.repairs[i] = std::move(rebuilt.repairs[j]);
+        result.repairs[i].rebuilt_at_corners = true;
         unsnapped[i] = quantize_with_repairs(stack, result.slice_spacing_px, options.quantize,
                                              options.verify, result.surfaces[i]);
         // note: the warning says how the retry ended (the quantize warning says so again when

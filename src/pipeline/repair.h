@@ -13,8 +13,8 @@ namespace strata {
 
 /// The repair policy: what the pipeline does where a stage cannot give its guarantee on some
 /// input, in the order it is tried (docs/architecture.md section 3). Every step taken is
-/// recorded in the surface (ObjectSurface) and in summary.json, and reported as a warning; a
-/// surface is never silently broken.
+/// recorded in the label's RepairRecord (pipeline/repair_record.h) and in summary.json, and
+/// reported as a warning; a surface is never silently broken.
 enum class RepairStep : std::uint8_t {
     /// A slab's contours overlap unlike the pixels (LabelTriangulation::mismatched_slabs): the
     /// label's contours on both its slices are simplified again with vertices at pixel corners
@@ -79,11 +79,15 @@ bool unsimplify_near_neighbours(SliceContourSet& set,
 /// kSplitAtAndLayer): one closed surface per label of `options.labels` (every label with
 /// contours when empty), in that order, labels in parallel (output identical for any number of
 /// threads). `stack` gives the pixels for kSplitAtAndLayer.
-std::vector<ObjectSurface> triangulate_with_repairs(const SliceStack& stack,
-                                                    const SliceContours& contours,
-                                                    const std::vector<SliceDistanceFields>& fields,
-                                                    const std::vector<MedialAxis>& medial_axes,
-                                                    const TriangulateOptions& options);
+struct RepairedSurfaces {
+    std::vector<ObjectSurface> surfaces;
+    std::vector<RepairRecord> repairs;  ///< per surface: the steps taken on it
+};
+RepairedSurfaces triangulate_with_repairs(const SliceStack& stack,
+                                          const SliceContours& contours,
+                                          const std::vector<SliceDistanceFields>& fields,
+                                          const std::vector<MedialAxis>& medial_axes,
+                                          const TriangulateOptions& options);
 
 /// The quantize stage for one surface, with verification and kFinerGrid: snaps it to the grid
 /// of `options.step` and verifies the snapped surface, and checks it exactly for
@@ -110,8 +114,8 @@ struct RebuildOptions {
 /// kLabelAtCorners for the surfaces `redo` (indices into `result.surfaces`, whose
 /// `unsnapped[i]` says why they stayed unsnapped): re-simplifies their contours in
 /// `result.contours` at pixel corners, recomputes `result.medial_axes`, triangulates them
-/// (triangulate_with_repairs) and quantizes them again (quantize_with_repairs, updating
-/// `unsnapped`). Warns in `report` how each rebuild ended.
+/// (triangulate_with_repairs, replacing their `result.repairs`) and quantizes them again
+/// (quantize_with_repairs, updating `unsnapped`). Warns in `report` how each rebuild ended.
 void rebuild_at_corners(const SliceStack& stack,
                         const RebuildOptions& options,
                         const std::vector<std::size_t>& redo,

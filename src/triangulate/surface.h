@@ -58,29 +58,13 @@ struct ObjectSurface {
     std::uint32_t slabs = 0;           ///< slice pairs joined by the surface
     std::uint32_t caps = 0;            ///< end caps (a single-slice slab counts two)
     std::uint32_t steiner_points = 0;  ///< vertices between slices (medial axis + refinement)
-    /// Slabs where the contours still overlap in another pattern than the pixels do after the
-    /// unsimplified fallback (the surface follows the polygons there, so its topology can differ
-    /// from the reference).
+    /// Slabs where the contours overlap in another pattern than the pixels do (the surface
+    /// follows the polygons there, so its topology can differ from the reference). The
+    /// pipeline's repair policy (pipeline/repair.h) records in its own RepairRecord what it did
+    /// about them.
     std::uint32_t topology_mismatches = 0;
-    /// Fallback count: slices whose contours of this label were used unsimplified because the
-    /// simplified ones overlapped their neighbours unlike the pixels.
-    std::uint32_t unsimplified_slices = 0;
-    std::vector<std::uint32_t> unsimplified;  ///< those slices, increasing
-    /// Slices where only the simplified edges near a neighbouring slice's contours went back to
-    /// their original points (unsimplify_near_neighbours) for the same reason, and the contours
-    /// then overlapped their neighbours like the pixels; increasing, none of them in
-    /// `unsimplified` (some may be in `at_corners` too: that was done first).
-    std::vector<std::uint32_t> partly_unsimplified;
-    /// Slices whose contours of this label were simplified again with vertices at pixel corners
-    /// only (SimplifyOptions::edge_midpoints off), for the same reason, and then overlapped
-    /// their neighbours like the pixels (or after `partly_unsimplified`); increasing, none of
-    /// them in `unsimplified`.
-    std::vector<std::uint32_t> at_corners;
-    /// Last-resort fallback count: slabs split at the pixels' AND layer (a contour level half
-    /// way between the slices) because even the original contours overlapped unlike the pixels.
-    std::uint32_t split_slabs = 0;
-    /// The largest deviation (px) of the simplified contours the surface was built from (after
-    /// the fallbacks) from the original contour points: its full-resolution bound.
+    /// The largest deviation (px) of the simplified contours the surface was built from from
+    /// the original contour points: its full-resolution bound.
     double contour_deviation_px = 0.0;
     std::uint32_t failed_slabs = 0;  ///< slabs refinement could not make valid
     std::vector<SlabIssue> issues;   ///< one per mismatch or failure, sorted by slice

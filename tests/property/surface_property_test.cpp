@@ -61,8 +61,8 @@ TEST(SurfaceProperty, RandomShapesGiveValidSurfacesWithReferenceTopology) {
             }
         }
         mismatched += surface.topology_mismatches;
-        fallback_slices += surface.unsimplified_slices;
-        split_slabs += surface.split_slabs;
+        fallback_slices += result.repairs.front().original_slices.size();
+        split_slabs += result.repairs.front().split_slabs;
         if (const char* b = std::getenv("STRATA_BISECT");
             b != nullptr && std::to_string(seed) == b) {
             for (std::uint32_t k = 0; k + 1 < stack.depth; ++k) {

@@ -48,8 +48,9 @@ SliceStack two_slices(const std::vector<std::string>& rows, double d) {
     return stack;
 }
 
-/// The surface of label 1, checked against R independently of the pipeline's own verification.
-ObjectSurface checked_surface(const SliceStack& stack) {
+/// The repair steps taken on label 1, whose surface is checked against R independently of the
+/// pipeline's own verification.
+RepairRecord checked_surface(const SliceStack& stack) {
     Report report;
     ReconstructOptions options;
     options.simplify = false;
@@ -78,12 +79,12 @@ ObjectSurface checked_surface(const SliceStack& stack) {
     EXPECT_EQ(genus, expected);
     EXPECT_TRUE(surface.verification.ok()) << surface.verification.problem;
     EXPECT_EQ(surface.topology_mismatches, 0u);
-    return surface;
+    return result.repairs.front();
 }
 
 TEST(FallbackSteps, ContoursAtPixelCornersSuffice) {
     // seed 1882953283 of surface_property_test, slices 4-5
-    const ObjectSurface s = checked_surface(two_slices(
+    const RepairRecord s = checked_surface(two_slices(
         {
             "....aa................",
             "...aXXa...............",
@@ -103,15 +104,15 @@ TEST(FallbackSteps, ContoursAtPixelCornersSuffice) {
             "......aaaaaa..........",
         },
         9.0));
-    EXPECT_FALSE(s.at_corners.empty());
-    EXPECT_TRUE(s.partly_unsimplified.empty());
-    EXPECT_TRUE(s.unsimplified.empty());
+    EXPECT_FALSE(s.corner_slices.empty());
+    EXPECT_TRUE(s.near_neighbour_slices.empty());
+    EXPECT_TRUE(s.original_slices.empty());
     EXPECT_EQ(s.split_slabs, 0u);
 }
 
 TEST(FallbackSteps, OriginalPointsNearTheNeighbouringContours) {
     // seed 916483116, slices 5-6
-    const ObjectSurface s = checked_surface(two_slices(
+    const RepairRecord s = checked_surface(two_slices(
         {
             "....bXXXXXX.....",
             "a.XXaaaaXXXXXb..",
@@ -125,27 +126,27 @@ TEST(FallbackSteps, OriginalPointsNearTheNeighbouringContours) {
             ".....bXXXXb.....",
         },
         3.0));
-    EXPECT_FALSE(s.partly_unsimplified.empty());
-    EXPECT_TRUE(s.unsimplified.empty());
+    EXPECT_FALSE(s.near_neighbour_slices.empty());
+    EXPECT_TRUE(s.original_slices.empty());
     EXPECT_EQ(s.split_slabs, 0u);
 }
 
 TEST(FallbackSteps, WholeOriginalContours) {
     // seed 3556634808, slices 0-1
-    const ObjectSurface s = checked_surface(two_slices(
+    const RepairRecord s = checked_surface(two_slices(
         {
             "..aaaa.....aaaa..",
             "aaaaaX.....baaaaa",
             ".aaaaa......aaaa.",
         },
         8.0));
-    EXPECT_FALSE(s.unsimplified.empty());
+    EXPECT_FALSE(s.original_slices.empty());
     EXPECT_EQ(s.split_slabs, 0u);
 }
 
 TEST(FallbackSteps, SplitAtTheAndLayer) {
     // seed 4114208135, slices 0-1
-    const ObjectSurface s = checked_surface(two_slices(
+    const RepairRecord s = checked_surface(two_slices(
         {
             "..bXaaaaaXXb..",
             ".Xa.......aXb.",

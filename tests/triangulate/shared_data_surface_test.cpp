@@ -31,9 +31,11 @@ std::size_t check_surfaces(const SliceStack& stack) {
     const Reconstruction result = reconstruct(stack, options, report);
     EXPECT_EQ(result.surfaces.size(), present_labels(stack).size());
     std::size_t fallbacks = 0;
+    for (const RepairRecord& repairs : result.repairs) {
+        fallbacks += repairs.split_slabs;
+    }
     for (const ObjectSurface& surface : result.surfaces) {
         SCOPED_TRACE("label " + std::to_string(surface.label));
-        fallbacks += surface.split_slabs;
         const MeshReport check = check_mesh(surface.mesh);
         EXPECT_TRUE(is_closed_manifold(check)) << check.problems.front();
         if (!is_closed_manifold(check)) {

@@ -38,7 +38,9 @@ SurfaceSummary summarise(const Reconstruction& result,
                          const SliceStack& stack,
                          double max_contour_error_px) {
     SurfaceSummary s;
-    for (const ObjectSurface& surface : result.surfaces) {
+    for (std::size_t n = 0; n < result.surfaces.size(); ++n) {
+        const ObjectSurface& surface = result.surfaces[n];
+        const RepairRecord& repairs = result.repairs[n];
         // Independent of the pipeline's verification and of the phantom's expectation: the
         // mesh core, exact self-intersection and the brute-force labeller of R.
         const std::string problem = test::independent_problem(stack, surface);
@@ -100,16 +102,16 @@ SurfaceSummary summarise(const Reconstruction& result,
         // quantize stage's declared move of slice-plane vertices (0 when not snapped).
         for (std::uint32_t k = 0; k < result.contours.slices.size(); ++k) {
             SliceContourSet set = result.contours.slices[k];
-            const bool original =
-                std::binary_search(surface.unsimplified.begin(), surface.unsimplified.end(), k);
-            if (std::binary_search(surface.at_corners.begin(), surface.at_corners.end(), k)) {
+            const bool original = std::binary_search(repairs.original_slices.begin(),
+                                                     repairs.original_slices.end(), k);
+            if (std::binary_search(repairs.corner_slices.begin(), repairs.corner_slices.end(), k)) {
                 SimplifyOptions corners;
                 corners.tolerance_px = result.contours.tolerance_px;
                 corners.edge_midpoints = false;
                 resimplify_label(set, surface.label, corners);
             }
-            if (std::binary_search(surface.partly_unsimplified.begin(),
-                                   surface.partly_unsimplified.end(), k)) {
+            if (std::binary_search(repairs.near_neighbour_slices.begin(),
+                                   repairs.near_neighbour_slices.end(), k)) {
                 unsimplify_near_neighbours(set, surface.label, result.fields, k,
                                            unsimplify_radius_px(result.contours.tolerance_px));
             }
