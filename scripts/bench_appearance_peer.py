@@ -223,8 +223,8 @@ def surface_metrics(points, triangles, normals):
 
 def shading_normals(points, triangles, rings=3):
     """src/mesh/shading_normals.h, written again here: unit face normals, angle-weighted vertex
-    normals normalised, summed over each vertex's `rings`-ring (vertex sets) where
-    a(u) . a(v) > -1/2, and normalised."""
+    normals normalised, summed over each vertex's `rings`-ring (vertex sets),
+    each weighted clamp((a(u) . a(v) + 1/2) / 0.1, 0, 1), and normalised."""
     from scipy import sparse
     p = points[triangles]
     face_n = unit(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
@@ -245,9 +245,9 @@ def shading_normals(points, triangles, rings=3):
     for _ in range(rings - 1):
         ring = ring @ step
         ring.data[:] = 1.0
-    # sum over the ring of the a(u) with a(u) . a(v) > -1/2, per vertex v (row)
+    # sum over the ring of the a(u) weighted clamp((a(u) . a(v) + 1/2) / 0.1, 0, 1), per vertex v (row)
     coo = ring.tocoo()
-    weight = (np.sum(a[coo.row] * a[coo.col], axis=1) > -0.5).astype(np.float64)
+    weight = np.clip((np.sum(a[coo.row] * a[coo.col], axis=1) + 0.5) / 0.1, 0.0, 1.0)
     weighted = sparse.csr_matrix((weight, (coo.row, coo.col)), shape=(n, n))
     out = unit(weighted @ a)
     out[np.linalg.norm(out, axis=1) == 0] = a[np.linalg.norm(out, axis=1) == 0]

@@ -474,7 +474,8 @@ export function resolveSlots(positions, index, slot, where = 'chunk') {
 /// (zero cross product: no contribution); a(v) = sum of theta_f(v) n_f over the faces at v
 /// (theta the interior angle, acos of the clamped dot product of the unit edges; 0 for a
 /// zero-length edge), normalized (or zero); n(v) = normalize(sum of a(u) over the `rings`-ring of
-/// v, v included, leaving out the u with a(u) . a(v) <= -1/2), else a(v), else (0, 0, 1).
+/// v, v included, each u weighted clamp((a(u) . a(v) + 1/2) / 0.1, 0, 1)), else a(v), else
+/// (0, 0, 1).
 /// positions: Float64Array (3 per vertex, in a frame where angles are true, e.g. patient mm);
 /// triangles: Uint32Array of vertex ids (the drawn cut, welded: one id per position); vertexCount.
 /// Returns Float32Array, 3 per vertex (vertices in no triangle get (0, 0, 1)).
@@ -577,11 +578,13 @@ export function shadingNormals(positions, triangles, vertexCount, rings = 3) {
         let sy = 0;
         let sz = 0;
         for (const x of ring) {
-            // leave out normals more than 120 degrees from v's own (the other side of a thin part)
-            if (a[3 * x] * a[3 * v] + a[3 * x + 1] * a[3 * v + 1] + a[3 * x + 2] * a[3 * v + 2] <= -0.5) continue;
-            sx += a[3 * x];
-            sy += a[3 * x + 1];
-            sz += a[3 * x + 2];
+            // fade out normals 114-120 degrees from v's own (the other side of a thin part)
+            const d = a[3 * x] * a[3 * v] + a[3 * x + 1] * a[3 * v + 1] + a[3 * x + 2] * a[3 * v + 2];
+            const weight = Math.min(1, Math.max(0, (d + 0.5) / 0.1));
+            if (!(weight > 0)) continue;
+            sx += weight * a[3 * x];
+            sy += weight * a[3 * x + 1];
+            sz += weight * a[3 * x + 2];
         }
         let n = Math.hypot(sx, sy, sz);
         if (!(n > 0)) {

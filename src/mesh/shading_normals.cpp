@@ -112,8 +112,10 @@ std::vector<Vec3> shading_normals(const TriMesh& mesh, unsigned rings) {
         std::sort(ring.begin(), ring.end());  // sum in vertex order
         Vec3 sum{};
         for (const std::uint32_t u : ring) {
-            if (dot(angle_weighted[u], angle_weighted[v]) > -0.5) {
-                sum = sum + angle_weighted[u];
+            const double w =
+                std::clamp((dot(angle_weighted[u], angle_weighted[v]) + 0.5) / 0.1, 0.0, 1.0);
+            if (w > 0.0) {
+                sum = sum + w * angle_weighted[u];
             }
         }
         Vec3 result = unit_or_zero(sum);

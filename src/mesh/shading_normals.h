@@ -20,11 +20,13 @@ namespace strata {
 ///    normalize(a(v)), or zero when a(v) is zero.
 /// 3. Rings: N(v) = the vertices that share a triangle with v; the k-ring R_k(v) = {v} and every
 ///    vertex reached from it by at most k steps through N, each vertex once.
-/// 4. n(v) = normalize(sum of a^(u) over the u in R_rings(v) with a^(u) . a^(v) > -1/2); when
-///    that sum is zero, a^(v); when that is zero too (an unreferenced vertex, or only degenerate
-///    faces), (0, 0, 1). The condition leaves out normals more than 120 degrees from v's own: the
-///    other side of a part a few pixels thin, which the rings reach around to (a plain sum
-///    cancels there: 40 vertices of the torso liver were 60-143 degrees off).
+/// 4. n(v) = normalize(sum of w(u) a^(u) over the u in R_rings(v)), w(u) = clamp((a^(u) . a^(v)
+///    + 1/2) / 0.1, 0, 1); when that sum is zero, a^(v); when that is zero too (an unreferenced
+///    vertex, or only degenerate faces), (0, 0, 1). The weight leaves out normals more than 120
+///    degrees from v's own (and fades in those 114-120 degrees off, so one bit of rounding at
+///    exactly 120 degrees cannot flip a normal): the other side of a part a few pixels thin, which
+///    the rings reach around to (a plain sum cancels there: 40 vertices of the torso liver were
+///    60-143 degrees off).
 /// With rings = 0 this is the plain angle-weighted normal. The default, 3, measured (scripts/
 /// bench-appearance.sh) shading roughness 2.18 degrees/mm on the torso liver (angle-weighted
 /// normals: 6.8; Slicer's smoothed surface: 4.6) and 1.89 on the TotalSegmentator liver (4.5;
