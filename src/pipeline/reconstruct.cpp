@@ -247,14 +247,10 @@ void triangulate_batch(const SliceStack& stack,
     clock.done("medial");
 
     batch.triangulate_options = options.triangulate;
-    batch.triangulate_options.threads = options.threads;
     batch.triangulate_options.slice_spacing_px = result.slice_spacing_px;
-    batch.triangulate_options.labels = batch.labels;
-    if (!batch.triangulate_options.progress) {
-        batch.triangulate_options.progress = batch.progress;
-    }
-    RepairedSurfaces repaired = triangulate_with_repairs(stack, result.contours, batch.fields,
-                                                         batch.axes, batch.triangulate_options);
+    RepairedSurfaces repaired = triangulate_with_repairs(
+        stack, result.contours, batch.fields, batch.axes, batch.triangulate_options, batch.labels,
+        options.threads, batch.progress);
     batch.surfaces = std::move(repaired.surfaces);
     batch.repairs = std::move(repaired.repairs);
     clock.done("triangulate");
@@ -283,10 +279,11 @@ void rebuild_batch_at_corners(const SliceStack& stack,
         run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first),
         run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first + batch.labels.size()));
     Report part_report;
-    rebuild_at_corners(stack,
-                       {contour_options.tolerance_px, batch.medial_options,
-                        batch.triangulate_options, options.quantize, options.verify},
-                       redo, part, part_unsnapped, part_report);
+    rebuild_at_corners(
+        stack,
+        {contour_options.tolerance_px, batch.medial_options, batch.triangulate_options,
+         options.quantize, options.verify, options.threads},
+        redo, part, part_unsnapped, part_report);
     result.contours = std::move(part.contours);
     batch.fields = std::move(part.fields);
     batch.axes = std::move(part.medial_axes);
@@ -448,8 +445,7 @@ Reconstruction reconstruct(const SliceStack& stack,
     // freed before the next batch starts, so they take the memory of one batch, not of all
     // labels. Every stage works on each label alone: the output is the same for any batch size.
     LabelRun run;
-    run.labels = options.triangulate.labels.empty() ? contour_labels(result.contours)
-                                                    : options.triangulate.labels;
+    run.labels = contour_labels(result.contours);
     const std::size_t batch_size = options.keep_fields || options.batch_labels == 0
                                        ? std::max<std::size_t>(run.labels.size(), 1)
                                        : options.batch_labels;

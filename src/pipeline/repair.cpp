@@ -231,20 +231,21 @@ RepairedSurfaces triangulate_with_repairs(const SliceStack& stack,
                                           const SliceContours& contours,
                                           const std::vector<SliceDistanceFields>& fields,
                                           const std::vector<MedialAxis>& medial_axes,
-                                          const TriangulateOptions& options) {
-    const std::vector<std::uint16_t> labels =
-        options.labels.empty() ? contour_labels(contours) : options.labels;
+                                          const TriangulateOptions& options,
+                                          const std::vector<std::uint16_t>& labels,
+                                          unsigned threads,
+                                          const ProgressFn& progress) {
     RepairedSurfaces result;
     result.surfaces.resize(labels.size());
     result.repairs.resize(labels.size());
     std::atomic<std::size_t> done{0};
     std::mutex progress_mutex;
-    parallel_for(labels.size(), options.threads, [&](std::size_t i) {
+    parallel_for(labels.size(), threads, [&](std::size_t i) {
         result.surfaces[i] = triangulate_label_with_repairs(stack, contours, fields, medial_axes,
                                                             options, labels[i], result.repairs[i]);
-        if (options.progress) {
+        if (progress) {
             const std::lock_guard lock(progress_mutex);
-            options.progress("objects", ++done, labels.size());
+            progress("objects", ++done, labels.size());
         }
     });
     return result;
@@ -356,9 +357,7 @@ void rebuild_at_corners(const SliceStack& stack,
     if (redo.empty()) {
         return;
     }
-    TriangulateOptions again = options.triangulate;
-    again.progress = nullptr;
-    again.labels.clear();
+    std::vector<std::uint16_t> labels;
     SimplifyOptions corners;
     corners.tolerance_px = options.tolerance_px;
     corners.edge_midpoints = false;
@@ -366,11 +365,12 @@ void rebuild_at_corners(const SliceStack& stack,
         for (SliceContourSet& set : result.contours.slices) {
             resimplify_label(set, result.surfaces[i].label, corners);
         }
-        again.labels.push_back(result.surfaces[i].label);
+        labels.push_back(result.surfaces[i].label);
     }
     result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
     RepairedSurfaces rebuilt =
-        triangulate_with_repairs(stack, result.contours, result.fields, result.medial_axes, again);
+        triangulate_with_repairs(stack, result.contours, result.fields, result.medial_axes,
+                                 options.triangulate, labels, options.threads, nullptr);
     for (std::size_t j = 0; j < redo.size(); ++j) {
         const std::size_t i = redo[j];
         const std::string first_try = unsnapped[i];

@@ -76,9 +76,9 @@ bool unsimplify_near_neighbours(SliceContourSet& set,
                                 double radius_px);
 
 /// The triangulation stage with the repairs of its mismatched slabs (kCornerVertices ..
-/// kSplitAtAndLayer): one closed surface per label of `options.labels` (every label with
-/// contours when empty), in that order, labels in parallel (output identical for any number of
-/// threads). `stack` gives the pixels for kSplitAtAndLayer.
+/// kSplitAtAndLayer): one closed surface per label of `labels` (increasing), in that order,
+/// labels in parallel on `threads` workers (0: all cores; output identical for any number),
+/// `progress` called per label (may be empty). `stack` gives the pixels for kSplitAtAndLayer.
 struct RepairedSurfaces {
     std::vector<ObjectSurface> surfaces;
     std::vector<RepairRecord> repairs;  ///< per surface: the steps taken on it
@@ -87,7 +87,10 @@ RepairedSurfaces triangulate_with_repairs(const SliceStack& stack,
                                           const SliceContours& contours,
                                           const std::vector<SliceDistanceFields>& fields,
                                           const std::vector<MedialAxis>& medial_axes,
-                                          const TriangulateOptions& options);
+                                          const TriangulateOptions& options,
+                                          const std::vector<std::uint16_t>& labels,
+                                          unsigned threads,
+                                          const ProgressFn& progress);
 
 /// The quantize stage for one surface, with verification and kFinerGrid: snaps it to the grid
 /// of `options.step` and verifies the snapped surface, and checks it exactly for
@@ -109,6 +112,7 @@ struct RebuildOptions {
     TriangulateOptions triangulate;
     QuantizeOptions quantize;
     bool verify = true;
+    unsigned threads = 0;  ///< worker threads, 0 = all cores
 };
 
 /// kLabelAtCorners for the surfaces `redo` (indices into `result.surfaces`, whose

@@ -39,10 +39,6 @@ struct TriangulateOptions {
     /// Rounds of local refinement (Steiner points) that remove flat chords and split
     /// correspondence jumps before a slab is declared failed.
     unsigned refine_rounds = 12;
-    unsigned threads = 0;  ///< worker threads, 0 = all cores; output identical for any count
-    ProgressFn progress;   ///< called per label (may be empty)
-    /// The labels to triangulate, increasing; empty: every label with contours.
-    std::vector<std::uint16_t> labels;
 };
 
 /// Something the triangulation could not do as the semantics ask, for one slab of one label.
@@ -113,8 +109,7 @@ struct LabelTriangulation {
 /// thickness d/2.
 /// Contour edges are shared exactly between the slabs and caps on both sides of a slice.
 /// Output: vertices without duplicates, triangles outward CCW;
-/// `surface.contour_deviation_px` is that of `contours`. `options.labels`, `threads` and
-/// `progress` are not used here.
+/// `surface.contour_deviation_px` is that of `contours`.
 LabelTriangulation triangulate_label(const SliceContours& contours,
                                      const std::vector<SliceDistanceFields>& fields,
                                      const std::vector<MedialAxis>& medial_axes,
