@@ -93,8 +93,6 @@ std::string file_stem(const std::string& name) {
     return stem.empty() ? std::string("object") : stem;
 }
 
-/// The stack a command works on: the input file or folder, else the named phantom; spacing
-/// override and label selection applied.
 SliceStack load_stack(const std::string& input,
                       const std::string& phantom,
                       const std::optional<Vec3>& spacing_mm,

@@ -27,7 +27,7 @@ struct ReadOptions {
 };
 
 /// Reads a label stack from `path`: a folder of 2D images (natural sort of names; a `meta.json`
-/// sidecar as in ../shared/data gives affine and names), a multi-page TIFF, NIfTI-1/2
+/// sidecar, as write_slice_stack writes it, gives affine and names), a multi-page TIFF, NIfTI-1/2
 /// (`.nii`, `.nii.gz`), or NRRD (`.nrrd`, `.seg.nrrd`, `.nhdr`). The result has a complete
 /// label table (file names, else the colour table, else "label N" with the fixed palette).
 /// Throws Error{InvalidInput} for malformed, truncated or inconsistent files, Error{Unsupported}

@@ -7,7 +7,7 @@
 
 namespace strata {
 
-/// Writes `stack` as a PNG stack in the layout of ../shared/data: DIR/slices/slice_KKKK.png
+/// Writes `stack` as a PNG stack: DIR/slices/slice_KKKK.png
 /// (8-bit greyscale when every label is <= 255, else 16-bit; column = i, row = j) and
 /// DIR/meta.json (dims, spacing, LPS index_to_world_mm, label names and colours), which
 /// read_slice_stack(DIR) reads back exactly. Each file is written atomically.
