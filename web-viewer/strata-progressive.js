@@ -1601,10 +1601,7 @@ export class StrataProgressivePlugin {
                     this.changed = true;
                     this.options.onChange?.(controller, group);
                 } catch (error) {
-                    controller.groupState[group] = 3;
-                    ++this.stats.failures;
-                    this.errors.push(`${controller.name} group ${group}: ${error.message ?? error}`);
-                    console.error(`${kExtension}: ${controller.name} group ${group}: ${error.message ?? error}`);
+                    this.groupFailed(controller, group, error);
                 } finally {
                     if (!queued) {
                         --this.decoding;
@@ -1613,6 +1610,15 @@ export class StrataProgressivePlugin {
                 }
             }),
         );
+    }
+
+    /// A group whose chunk could not be fetched, decoded or attached: marked failed (never asked
+    /// for again), counted, and its error kept and logged.
+    groupFailed(controller, group, error) {
+        controller.groupState[group] = 3;
+        ++this.stats.failures;
+        this.errors.push(`${controller.name} group ${group}: ${error.message ?? error}`);
+        console.error(`${kExtension}: ${controller.name} group ${group}: ${error.message ?? error}`);
     }
 
     /// Attaches arrived chunks in tasks of their own (attachMs each, yielding in between), until
@@ -1644,10 +1650,7 @@ export class StrataProgressivePlugin {
                 ++this.stats.chunksLoaded;
                 this.changed = true;
             } catch (error) {
-                controller.groupState[group] = 3;
-                ++this.stats.failures;
-                this.errors.push(`${controller.name} group ${group}: ${error.message ?? error}`);
-                console.error(`${kExtension}: ${controller.name} group ${group}: ${error.message ?? error}`);
+                this.groupFailed(controller, group, error);
             } finally {
                 --this.decoding;
             }
