@@ -790,6 +790,23 @@ DistanceField compute_distance_field(const SliceStack& stack,
     return field_in_window(stack, set, k, label, own, window, margin);
 }
 
+LabelBoxes compute_label_boxes(const SliceStack& stack,
+                               const SliceContours& contours,
+                               unsigned threads) {
+    LabelBoxes result;
+    result.labels = contour_labels(contours);
+    std::vector<std::int32_t> label_index(65536, -1);
+    for (std::size_t i = 0; i < result.labels.size(); ++i) {
+        label_index[result.labels[i]] = static_cast<std::int32_t>(i);
+    }
+    result.boxes.resize(stack.depth);
+    parallel_for(stack.depth, threads, [&](std::size_t k) {
+        result.boxes[k] =
+            label_boxes(stack, static_cast<std::uint32_t>(k), label_index, result.labels.size());
+    });
+    return result;
+}
+
 std::vector<SliceDistanceFields> compute_distance_fields(const SliceStack& stack,
                                                          const SliceContours& contours,
                                                          const DistanceOptions& options) {
@@ -811,10 +828,16 @@ std::vector<SliceDistanceFields> compute_distance_fields(const SliceStack& stack
         margin_pixels(options.margin_px, 0, labels.front());  // validate before any work
     }
 
-    std::vector<std::vector<PixelBox>> boxes(stack.depth);
-    parallel_for(stack.depth, options.threads, [&](std::size_t k) {
-        boxes[k] = label_boxes(stack, static_cast<std::uint32_t>(k), label_index, labels.size());
-    });
+    LabelBoxes scanned;
+    const LabelBoxes* known = options.boxes;
+    if (known == nullptr) {
+        scanned = compute_label_boxes(stack, contours, options.threads);
+        known = &scanned;
+    } else if (known->labels != labels || known->boxes.size() != stack.depth) {
+        throw Error(ErrorCode::Internal,
+                    "distance fields: label boxes of other labels or another stack");
+    }
+    const std::vector<std::vector<PixelBox>>& boxes = known->boxes;
 
     std::vector<SliceDistanceFields> result(stack.depth);
     std::mutex progress_mutex;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "contours/slice_contours.h"
+#include "core/pixel_box.h"
 #include "core/progress.h"
 #include "input/slice_stack.h"
 
@@ -105,6 +106,19 @@ struct SliceDistanceFields {
 };
 
 /// Options of the distance stage.
+/// The pixel box of every label with contours on every slice (empty where it is absent), found
+/// by one scan of the stack; compute_distance_fields reads its windows from them.
+struct LabelBoxes {
+    std::vector<std::uint16_t> labels;         ///< contour_labels of the contours
+    std::vector<std::vector<PixelBox>> boxes;  ///< [slice][index in labels]
+};
+
+/// LabelBoxes of `stack` for the labels of `contours`, slices in parallel on `threads` (0: all
+/// cores).
+LabelBoxes compute_label_boxes(const SliceStack& stack,
+                               const SliceContours& contours,
+                               unsigned threads);
+
 struct DistanceOptions {
     double margin_px = 4.0;  ///< extra border around the labels' extent, px (rounded up to whole
                              ///< pixels); also the least outside_window_px
@@ -113,6 +127,9 @@ struct DistanceOptions {
     /// compute_distance_fields: the labels to compute, increasing; empty: every label with
     /// contours. Each label's fields are the same whichever others are computed.
     std::vector<std::uint16_t> labels;
+    /// compute_distance_fields: the boxes of the same stack and contours when already known
+    /// (batches of labels share one scan); null: scanned here.
+    const LabelBoxes* boxes = nullptr;
 };
 
 /// Computes the distance field of `label` on slice `k` (see DistanceField) over the window

@@ -177,6 +177,7 @@ struct LabelRun {
 struct LabelBatch {
     std::size_t first = 0;  ///< index of the batch's first label in LabelRun::labels
     std::vector<std::uint16_t> labels;
+    const LabelBoxes* boxes = nullptr;  ///< of all labels, shared by the batches
     ProgressFn progress;
     MedialOptions medial_options;
     TriangulateOptions triangulate_options;
@@ -231,6 +232,7 @@ void triangulate_batch(const SliceStack& stack,
     DistanceOptions distance_options = options.distance;
     distance_options.threads = options.threads;
     distance_options.labels = batch.labels;
+    distance_options.boxes = batch.boxes;
     if (!distance_options.progress) {
         distance_options.progress = batch.progress;
     }
@@ -452,8 +454,11 @@ Reconstruction reconstruct(const SliceStack& stack,
     const char* verify_stage = options.quantize.enabled ? "quantize+verify" : "verify";
     run.unsnapped.resize(run.labels.size());
     run.kept.resize(run.labels.size());
+    // note: one scan of the stack for the label boxes, not one per batch
+    const LabelBoxes boxes = compute_label_boxes(stack, result.contours, options.threads);
     for (std::size_t first = 0; first < run.labels.size(); first += batch_size) {
         LabelBatch batch = start_batch(options, run.labels, first, batch_size);
+        batch.boxes = &boxes;
         triangulate_batch(stack, options, result, clock, batch);
         if (options.quantize.enabled || options.verify) {
             verify_batch(stack, options, contour_options, verify_stage, result, run, batch);

@@ -446,19 +446,30 @@ TEST(DistanceField, DeterministicForAnyThreadCount) {
     options.threads = 4;
     options.progress = nullptr;
     const std::vector<SliceDistanceFields> four = compute_distance_fields(stack, contours, options);
+    // the label boxes of one scan, as batches of labels share them
+    const LabelBoxes boxes = compute_label_boxes(stack, contours, 2);
+    options.boxes = &boxes;
+    const std::vector<SliceDistanceFields> shared =
+        compute_distance_fields(stack, contours, options);
+    LabelBoxes other_labels = boxes;
+    other_labels.labels.pop_back();
+    options.boxes = &other_labels;
+    EXPECT_THROW(compute_distance_fields(stack, contours, options), Error);
     ASSERT_EQ(one.size(), stack.depth);
     ASSERT_EQ(four.size(), stack.depth);
+    ASSERT_EQ(shared.size(), stack.depth);
     std::size_t fields = 0;
     for (std::uint32_t k = 0; k < stack.depth; ++k) {
         SCOPED_TRACE("slice " + std::to_string(k));
         ASSERT_EQ(one[k].fields.size(), contours.slices[k].labels.size());
         ASSERT_EQ(four[k].fields.size(), one[k].fields.size());
+        ASSERT_EQ(shared[k].fields.size(), one[k].fields.size());
         for (std::size_t f = 0; f < one[k].fields.size(); ++f) {
             const DistanceField& a = one[k].fields[f];
             const DistanceField& b = four[k].fields[f];
             const DistanceField c = compute_distance_field(stack, contours.slices[k], k,
                                                            contours.slices[k].labels[f].label, {});
-            for (const DistanceField* other : {&b, &c}) {
+            for (const DistanceField* other : {&b, &c, &shared[k].fields[f]}) {
                 EXPECT_EQ(a.label, other->label);
                 EXPECT_EQ(a.slice, other->slice);
                 EXPECT_EQ(a.origin_x, other->origin_x);
