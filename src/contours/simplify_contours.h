@@ -29,11 +29,9 @@ struct SimplifyOptions {
     /// scripts/bench-accuracy.sh measured (mean error / bias, px) sphere d = 2: 0.130 / -0.086 ->
     /// 0.103 / -0.038, torus d = 2: 0.162 / -0.112 -> 0.107 / -0.023, branching d = 2:
     /// 0.145 -> 0.096, every phantom and d better in mean, bias and max (2 and 4 gain less, 16
-    /// the same as 8). 0 (vertices where Douglas-Peucker put them) until three tests are
-    /// adapted or explained: with 8, FallbackSteps.ContoursAtPixelCornersSuffice (the corner
-    /// fallback is no longer needed there), SimplifyBudget.TrianglesAtABoundDoNotRegressTorus
-    /// (2886 triangles at 1 px against 2441) and MeshoptScene.HoldsEveryTriangleOnItsGrid fail.
-    std::uint32_t balance_reach = 0;
+    /// the same as 8). The fallback to pixel-corner vertices (edge_midpoints off) balances too:
+    /// original points are pixel corners.
+    std::uint32_t balance_reach = 8;
 };
 
 /// Douglas-Peucker simplification of an open polyline in O(n log n) (Hershberger-Snoeyink path

@@ -226,9 +226,11 @@ TEST(MultiresDag, RejectsKeepFractionOutsideZeroOne) {
 
 TEST(MultiresDag, FineBoundsAreMonotoneAndLeaveOutTheFullResolutionBound) {
     // The bound against the finest level never exceeds the slice bound and grows along the DAG.
-    // It leaves out the full-resolution surface's own bound: declared loose (3 px, as coarse
-    // voxels give), every group's slice bound is at least 3 px while some first-level group's
-    // bound against the finest level is below 90 % of its slice bound. Every level's cut is
+    // It leaves out the full-resolution surface's own bound: declared loose (4 px, as coarse
+    // voxels give), every group's slice bound is at least 4 px while some first-level group's
+    // bound against the finest level is below 90 % of its slice bound (at 3 px, the torus'
+    // first-level groups reach 2.80-2.99 px since the balanced contour vertices,
+    // SimplifyOptions::balance_reach; at 4 px 3.40 px and up). Every level's cut is
     // within its bound of every full-resolution vertex (and every cut of the tests above:
     // expect_valid_cut).
     const Built b = build("torus");
@@ -236,12 +238,12 @@ TEST(MultiresDag, FineBoundsAreMonotoneAndLeaveOutTheFullResolutionBound) {
     const SliceErrorMeter meter(r.contours, r.fields, r.surfaces[0].label, r.slice_spacing_px);
     MultiresOptions options;
     options.cluster_triangles = 256;
-    const MultiresMesh m = build_multires_mesh(r.surfaces[0].mesh, meter, 3.0, options);
+    const MultiresMesh m = build_multires_mesh(r.surfaces[0].mesh, meter, 4.0, options);
     ASSERT_GT(m.groups.size(), 2u);
     std::size_t level_one = 0;
     for (const MultiresGroup& g : m.groups) {
         EXPECT_LE(g.fine_error_px, g.error_px);
-        EXPECT_GE(g.error_px, 3.0);
+        EXPECT_GE(g.error_px, 4.0);
         EXPECT_GT(g.fine_error_px, 0.0);
         for (const std::uint32_t c : g.consumed) {
             const std::int32_t p = m.clusters[c].producer;

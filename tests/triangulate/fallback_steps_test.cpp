@@ -83,27 +83,39 @@ RepairRecord checked_surface(const SliceStack& stack) {
 }
 
 TEST(FallbackSteps, ContoursAtPixelCornersSuffice) {
-    // seed 1882953283 of surface_property_test, slices 4-5
+    // seed 68334472 of surface_property_test, slices 5-6 (found again with the balanced contour
+    // vertices, SimplifyOptions::balance_reach: seed 1882953283's slices 4-5 no longer need the
+    // fallback)
+    // clang-format off
     const RepairRecord s = checked_surface(two_slices(
         {
-            "....aa................",
-            "...aXXa...............",
-            "...XXXXaaaaa..........",
-            "...bbbbbbbXaaa........",
-            "...b....bbbXXXaa......",
-            "...b....bbbXXXXaa.....",
-            "..bbbbbbbbXXXXXXaaaa..",
-            "aaXXXXXXXXXXXXXXaaaaaa",
-            "aaXXXXXXXXXXXXXXXaaaaa",
-            "aaXXXXXXXXXXXXXXaaaaaa",
-            "aaXXXXXXXXXXXXXXaaaa..",
-            ".aXXXXXXXXXXXXXXa.....",
-            ".aaXXXXXXXXXXXXaa.....",
-            "..aaXXXXXXXXXaaa......",
-            "...aaaaXXXXaaa........",
-            "......aaaaaa..........",
+            "...a........",
+            "..aaa.......",
+            "..XXa.......",
+            ".aXXX.......",
+            ".aXXXaaa....",
+            ".XXXXaaaa...",
+            ".XXXXaaaaa..",
+            ".XXXXXaaaaa.",
+            ".XbXXXaaaaa.",
+            ".bbbbXaaaaa.",
+            ".b..bbaaaaaa",
+            ".b..bbaaaaaa",
+            ".bbbbXaaaaa.",
+            "aXbbXXaaaaa.",
+            "aXXXXXaaaaa.",
+            ".XXXXXaaaa..",
+            ".XXXXXaaa...",
+            ".XXXXX......",
+            ".XXXXa......",
+            ".aXXXa......",
+            ".aXXX.......",
+            "..XXa.......",
+            "..aaa.......",
+            "...a........",
         },
-        9.0));
+        2.0));
+    // clang-format on
     EXPECT_FALSE(s.corner_slices.empty());
     EXPECT_TRUE(s.near_neighbour_slices.empty());
     EXPECT_TRUE(s.original_slices.empty());
