@@ -8,8 +8,8 @@
 #   3. `strata build STACK -o OURS --quiet` writes one mesh per object to OURS/meshes/*.ply (while
 #      triangulation is not built, the strata row says so);
 #   4. tests/bench/mesh_accuracy measures every mesh against the phantom's analytic solids;
-# then prints one table: triangles, mean / RMS / max error in px, bias, time, and ratios vs
-# flying edges.
+# then prints one table: triangles, mean / RMS / max error in px, bias, the enclosed volume's
+# error against the analytic solid's in %, time, and ratios vs flying edges.
 #   bash scripts/bench-accuracy.sh [--quick] [--build-dir DIR] [--keep DIR]
 #     --quick          one slice spacing (4 px) instead of 2, 4, 8
 #     --build-dir DIR  build there (default: build-bench in the repository; BUILD_DIR also works)

@@ -245,14 +245,22 @@ def run_mesh(args):
     (args.out_dir / "peer_times.json").write_text(json.dumps(times, indent=2) + "\n")
 
 
+def volume_error(r):
+    """The enclosed volume's error in % of the truth's, or '-' (rows recorded without volumes)."""
+    if not r.get("truth_volume_px3"):
+        return f"{'-':>6}"
+    return f"{100.0 * (r['volume_px3'] / r['truth_volume_px3'] - 1.0):>+6.2f}"
+
+
 def run_table(args):
     rows = [json.loads(line) for line in args.results.read_text().splitlines() if line.strip()]
     methods = ["strata", "flying-edges", "slicer-smoothed", "shape-based"]
     header = (f"{'phantom':<14} {'d':>3} {'method':<16} {'triangles':>9} {'mean px':>8}"
-              f" {'rms px':>7} {'max px':>7} {'bias px':>8} {'time s':>7}"
+              f" {'rms px':>7} {'max px':>7} {'bias px':>8} {'vol %':>6} {'time s':>7}"
               f"  {'mean/FE':>7} {'rms/FE':>7} {'max/FE':>7} {'tri/FE':>7}")
     print("Surface accuracy, one-sided |distance| mesh -> analytic solid, area-weighted; px = "
-          "in-plane pixel (1 mm). bias > 0: the mesh lies outside the solid on average.")
+          "in-plane pixel (1 mm). bias > 0: the mesh lies outside the solid on average. vol %: "
+          "enclosed volume against the analytic solid's.")
     print("Ratios vs flying-edges (FE); < 1 is better for errors. Time: peers build the mesh "
           "only; strata is the whole `strata build` command (read, all stages, write).")
     print(header)
@@ -280,7 +288,8 @@ def run_table(args):
                 return f"{r[field] / fe[field]:>7.2f}"
 
             print(f"{label} {r['triangles']:>9} {r['mean_px']:>8.3f} {r['rms_px']:>7.3f}"
-                  f" {r['max_px']:>7.3f} {r['bias_px']:>+8.3f} {r['seconds']:>7.3f}"
+                  f" {r['max_px']:>7.3f} {r['bias_px']:>+8.3f} {volume_error(r)}"
+                  f" {r['seconds']:>7.3f}"
                   f"  {ratio('mean_px')} {ratio('rms_px')} {ratio('max_px')}"
                   f" {ratio('triangles')}"
                   + ("  (clipped)" if r.get("clipped") else ""))
@@ -318,6 +327,8 @@ def run_record(args):
             if area > 0 else 0.0,
             "max_px": max(m["max_px"] for m in meshes),
             "bias_px": weighted("bias_px"),
+            "volume_px3": sum(m.get("volume_px3", 0.0) for m in meshes),
+            "truth_volume_px3": sum(m.get("truth_volume_px3", 0.0) for m in meshes),
             "pixel_mm": meshes[0]["pixel_mm"],
             "centroid_px": [sum(m["centroid_px"][a] * m["area_px2"] for m in meshes) / area
                             if area > 0 else 0.0 for a in range(3)],

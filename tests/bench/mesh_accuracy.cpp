@@ -28,6 +28,14 @@
 // barycentric grid, n = ceil(2 sqrt(area_px2)) >= 1 (about 4 samples per px^2; n = 1: the
 // centroid), and |d| is taken at the sub-triangle centroids with weight area / n^2 (mean, RMS,
 // signed bias) and at those centroids plus the grid's lattice points, corners included (max).
+//
+// Volume: the volume the mesh encloses (|signed volume| by the divergence theorem, px^3: closed
+// meshes oriented either way, as marching cubes' inward winding) against the volume of the union
+// of the solids it is compared with (all of them for a mesh of several labels), integrated over
+// cubes of 1 px in the union's bounding box: a cube whose centre's |signed distance| exceeds its
+// half-diagonal lies wholly inside or outside (the distance is a lower bound of the true one),
+// others are split in 8, three times; the last cubes (1/8 px) count the fraction
+// clamp(1/2 - d / side, 0, 1).
 
 #include <algorithm>
 #include <cctype>
@@ -86,13 +94,15 @@ struct MeshAccuracy {
     std::size_t triangles = 0;
     std::size_t samples = 0;
     double area_px2 = 0.0;
-    double mean_px = 0.0;  ///< area-weighted mean of |d|
-    double rms_px = 0.0;   ///< area-weighted root mean square of d
-    double max_px = 0.0;   ///< largest sampled |d|
-    double bias_px = 0.0;  ///< area-weighted mean of signed d (> 0: mesh lies outside the truth)
-    Vec3 centroid_px;      ///< area-weighted centroid of the surface
-    bool clipped = false;  ///< some solid compared with was clipped to the stack's extent
-    bool exact = true;     ///< every solid compared with has an exact distance
+    double mean_px = 0.0;     ///< area-weighted mean of |d|
+    double rms_px = 0.0;      ///< area-weighted root mean square of d
+    double max_px = 0.0;      ///< largest sampled |d|
+    double bias_px = 0.0;     ///< area-weighted mean of signed d (> 0: mesh lies outside the truth)
+    Vec3 centroid_px;         ///< area-weighted centroid of the surface
+    double volume_px3 = 0.0;  ///< volume enclosed by the mesh
+    double truth_volume_px3 = 0.0;  ///< volume of the union of the solids compared with
+    bool clipped = false;           ///< some solid compared with was clipped to the stack's extent
+    bool exact = true;              ///< every solid compared with has an exact distance
 };
 
 const char* usage() {
@@ -261,6 +271,53 @@ std::vector<std::size_t> candidates(const std::vector<TruthSolid>& truth, std::u
     return c;
 }
 
+/// Volume of the union of the candidate solids, px^3 (see the top comment).
+double union_volume_px3(const std::vector<TruthSolid>& truth,
+                        const std::vector<std::size_t>& which) {
+    constexpr int kSplits = 3;
+    Bounds3 box{Vec3{1e300, 1e300, 1e300}, Vec3{-1e300, -1e300, -1e300}};
+    for (std::size_t i : which) {
+        const Bounds3 b = bounding_box(truth[i].solid);
+        for (int a = 0; a < 3; ++a) {
+            box.min[a] = std::min(box.min[a], b.min[a]);
+            box.max[a] = std::max(box.max[a], b.max[a]);
+        }
+    }
+    const auto union_distance = [&](Vec3 p) {
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t i : which) {
+            best = std::min(best, signed_distance(truth[i].solid, p));
+        }
+        return best;
+    };
+    const auto cube = [&](const auto& self, Vec3 centre, double side, int level) -> double {
+        const double dist = union_distance(centre);
+        const double volume = side * side * side;
+        if (std::abs(dist) > 0.5 * std::sqrt(3.0) * side) {
+            return dist < 0.0 ? volume : 0.0;
+        }
+        if (level == kSplits) {
+            return volume * std::clamp(0.5 - dist / side, 0.0, 1.0);
+        }
+        double sum = 0.0;
+        for (int c = 0; c < 8; ++c) {
+            const Vec3 offset{(c & 1) ? 0.25 : -0.25, (c & 2) ? 0.25 : -0.25,
+                              (c & 4) ? 0.25 : -0.25};
+            sum += self(self, centre + side * offset, 0.5 * side, level + 1);
+        }
+        return sum;
+    };
+    double total = 0.0;
+    for (double z = std::floor(box.min.z) - 1.0; z < box.max.z + 1.0; z += 1.0) {
+        for (double y = std::floor(box.min.y) - 1.0; y < box.max.y + 1.0; y += 1.0) {
+            for (double x = std::floor(box.min.x) - 1.0; x < box.max.x + 1.0; x += 1.0) {
+                total += cube(cube, Vec3{x + 0.5, y + 0.5, z + 0.5}, 1.0, 0);
+            }
+        }
+    }
+    return total;
+}
+
 /// The signed distance of smallest magnitude over the candidate solids.
 double distance_px(const std::vector<TruthSolid>& truth,
                    const std::vector<std::size_t>& which,
@@ -300,6 +357,7 @@ MeshAccuracy measure(const std::filesystem::path& path,
         const auto& tri = mesh.triangles[t];
         const Vec3 a = px[tri[0]], b = px[tri[1]], c = px[tri[2]];
         const Vec3 ab = b - a, ac = c - a;
+        r.volume_px3 += dot(a, cross(b, c)) / 6.0;
         const double area = 0.5 * norm(cross(ab, ac));
         const std::uint16_t tri_label =
             label ? *label : (mesh.labels.empty() ? file_label : mesh.labels[t]);
@@ -345,11 +403,17 @@ MeshAccuracy measure(const std::filesystem::path& path,
         r.bias_px = sum_signed / r.area_px2;
         r.centroid_px = (1.0 / r.area_px2) * sum_centroid;
     }
+    std::vector<std::size_t> compared;
     for (std::size_t i = 0; i < truth.size(); ++i) {
         if (used[i]) {
             r.clipped = r.clipped || truth[i].clipped;
             r.exact = r.exact && truth[i].exact;
+            compared.push_back(i);
         }
+    }
+    r.volume_px3 = std::abs(r.volume_px3);
+    if (!compared.empty()) {
+        r.truth_volume_px3 = union_volume_px3(truth, compared);
     }
     return r;
 }
@@ -373,6 +437,8 @@ nlohmann::json to_json(const MeshAccuracy& r, const Phantom& phantom) {
     j["rms_mm"] = r.rms_px * mm;
     j["max_mm"] = r.max_px * mm;
     j["centroid_px"] = {r.centroid_px.x, r.centroid_px.y, r.centroid_px.z};
+    j["volume_px3"] = r.volume_px3;
+    j["truth_volume_px3"] = r.truth_volume_px3;
     j["clipped"] = r.clipped;
     j["exact_distance"] = r.exact;
     return j;
