@@ -247,7 +247,6 @@ bool LabelSurface::emit_faces(Cdt& cdt,
                 if (steiner_id_[s] < 0) {
                     steiner_id_[s] =
                         std::int32_t(add_vertex(steiner_xy_[s], z0 + steiner_t_[s] * d));
-                    free_heights_.push_back({std::uint32_t(steiner_id_[s]), z0, z0 + d});
                     ++surface_.steiner_points;
                 }
                 return steiner_id_[s];

@@ -385,8 +385,6 @@ private:
     /// The contour rings of the slab being built's two slices (height_t).
     std::array<SegmentGrid, 2> slab_rings_;
     std::vector<std::uint32_t> mismatched_slabs_;
-    /// Every slab's Steiner vertices with their slab's planes (relax_fold_heights).
-    std::vector<FreeHeightVertex> free_heights_;
 
     /// Collinear overlaps of a slice k edge and a slice k+1 edge (slice, local contour, edge):
     /// every point on one edge inside the overlap must be on the other too.
