@@ -16,7 +16,7 @@
 #include "contours/simplify_contours.h"
 #include "core/parallel.h"
 #include "mesh/self_intersection.h"
-#include "simplify/edge_collapse.h"
+#include "quantize/snap_to_grid.h"
 
 namespace strata {
 

@@ -93,4 +93,16 @@ bool snap_to_grid(
     return true;
 }
 
+std::vector<Vec3> grid_frame_positions(const std::vector<Vec3>& positions,
+                                       double slice_spacing_px,
+                                       double grid_step) {
+    std::vector<Vec3> out = positions;
+    if (grid_step > 0.0) {
+        for (Vec3& p : out) {
+            p.z = std::nearbyint(p.z / slice_spacing_px / grid_step) * grid_step;
+        }
+    }
+    return out;
+}
+
 }  // namespace strata

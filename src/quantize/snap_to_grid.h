@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "mesh/tri_mesh.h"
 
@@ -45,5 +46,15 @@ struct GridSnap {
 /// \throw Error{InvalidInput} when `step` is not a power of two in (0, 1/2] or d <= 0.
 bool snap_to_grid(
     const TriMesh& mesh, double slice_spacing_px, double step, GridSnap& out, std::string& why);
+
+/// `positions` (slice space: x, y in px, z = slice index times `slice_spacing_px`) in the grid
+/// frame of step `grid_step` (snap_to_grid): x and y unchanged, z the slice index
+/// rounded to the step, so that a snapped surface's coordinates are exact (small dyadic numbers)
+/// and predicates there are the truth about what a file stores, where z * spacing is rounded.
+/// Degeneracy and intersection are invariant under the affine map back to slice space, up to
+/// that rounding. `grid_step` 0 (not snapped): the positions unchanged.
+std::vector<Vec3> grid_frame_positions(const std::vector<Vec3>& positions,
+                                       double slice_spacing_px,
+                                       double grid_step);
 
 }  // namespace strata

@@ -969,18 +969,6 @@ private:
 
 }  // namespace
 
-std::vector<Vec3> grid_frame_positions(const std::vector<Vec3>& positions,
-                                       double slice_spacing_px,
-                                       double grid_step) {
-    std::vector<Vec3> out = positions;
-    if (grid_step > 0.0) {
-        for (Vec3& p : out) {
-            p.z = std::nearbyint(p.z / slice_spacing_px / grid_step) * grid_step;
-        }
-    }
-    return out;
-}
-
 CollapseResult collapse_edges(const CollapseProblem& problem,
                               const SliceErrorMeter& meter,
                               const CollapseOptions& options) {

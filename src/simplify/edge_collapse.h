@@ -52,16 +52,6 @@ struct CollapseProblem {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> piece_triangles;
 };
 
-/// `positions` (slice space: x, y in px, z = slice index times `slice_spacing_px`) in the grid
-/// frame of step `grid_step` (quantize/snap_to_grid.h): x and y unchanged, z the slice index
-/// rounded to the step, so that a snapped surface's coordinates are exact (small dyadic numbers)
-/// and predicates there are the truth about what a file stores, where z * spacing is rounded.
-/// Degeneracy and intersection are invariant under the affine map back to slice space, up to
-/// that rounding. `grid_step` 0 (not snapped): the positions unchanged.
-std::vector<Vec3> grid_frame_positions(const std::vector<Vec3>& positions,
-                                       double slice_spacing_px,
-                                       double grid_step);
-
 /// What `collapse_edges` did.
 struct CollapseResult {
     std::vector<std::array<std::uint32_t, 3>> triangles;  ///< the simplified piece

@@ -21,6 +21,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "mesh/self_intersection.h"
+#include "quantize/snap_to_grid.h"
 #include "simplify/detail/triangle_grid.h"
 #include "simplify/detail/triangle_hash.h"
 #include "simplify/edge_collapse.h"

@@ -16,7 +16,6 @@
 #include "phantom/catalogue.h"
 #include "pipeline/reconstruct.h"
 #include "pipeline/repair.h"
-#include "simplify/edge_collapse.h"
 #include "support/surface_checks.h"
 
 namespace strata {
