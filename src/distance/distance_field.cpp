@@ -790,15 +790,25 @@ DistanceField compute_distance_field(const SliceStack& stack,
     return field_in_window(stack, set, k, label, own, window, margin);
 }
 
+namespace {
+
+/// For every 16-bit label, its index in `labels`, or -1 when absent.
+std::vector<std::int32_t> index_of_labels(const std::vector<std::uint16_t>& labels) {
+    std::vector<std::int32_t> index(65536, -1);
+    for (std::size_t i = 0; i < labels.size(); ++i) {
+        index[labels[i]] = static_cast<std::int32_t>(i);
+    }
+    return index;
+}
+
+}  // namespace
+
 LabelBoxes compute_label_boxes(const SliceStack& stack,
                                const SliceContours& contours,
                                unsigned threads) {
     LabelBoxes result;
     result.labels = contour_labels(contours);
-    std::vector<std::int32_t> label_index(65536, -1);
-    for (std::size_t i = 0; i < result.labels.size(); ++i) {
-        label_index[result.labels[i]] = static_cast<std::int32_t>(i);
-    }
+    const std::vector<std::int32_t> label_index = index_of_labels(result.labels);
     result.boxes.resize(stack.depth);
     parallel_for(stack.depth, threads, [&](std::size_t k) {
         result.boxes[k] =
@@ -820,10 +830,7 @@ std::vector<SliceDistanceFields> compute_distance_fields(const SliceStack& stack
                         " with " + std::to_string(stack.depth) + " slices (the stack's)");
     }
     const std::vector<std::uint16_t> labels = contour_labels(contours);
-    std::vector<std::int32_t> label_index(65536, -1);
-    for (std::size_t i = 0; i < labels.size(); ++i) {
-        label_index[labels[i]] = static_cast<std::int32_t>(i);
-    }
+    const std::vector<std::int32_t> label_index = index_of_labels(labels);
     if (!labels.empty()) {
         margin_pixels(options.margin_px, 0, labels.front());  // validate before any work
     }

@@ -105,7 +105,6 @@ struct SliceDistanceFields {
     std::vector<DistanceField> fields;
 };
 
-/// Options of the distance stage.
 /// The pixel box of every label with contours on every slice (empty where it is absent), found
 /// by one scan of the stack; compute_distance_fields reads its windows from them.
 struct LabelBoxes {
@@ -119,6 +118,7 @@ LabelBoxes compute_label_boxes(const SliceStack& stack,
                                const SliceContours& contours,
                                unsigned threads);
 
+/// Options of the distance stage.
 struct DistanceOptions {
     double margin_px = 4.0;  ///< extra border around the labels' extent, px (rounded up to whole
                              ///< pixels); also the least outside_window_px
