@@ -397,6 +397,11 @@ private:
     void share_overlap_points();  ///< constrained edges split by the triangulation (a bug)
 };
 
+/// The root in [0, 1] of the monotone cubic Hermite curve from a (at t = 0) to b (at t = 1), a and
+/// b of opposite signs, end slopes m0, m1 (per unit t; limited by Fritsch and Carlson's rule): the
+/// middle of the interval of width 2^-40 where the computed curve changes sign.
+double hermite_root(double a, double b, double m0, double m1);
+
 /// The signed distance of slice field `f` at q (bilinear between nodes; negative inside; 1e9
 /// without a field, outside_window_px outside its window).
 double sample_field(const DistanceField* f, Vec2 q);
