@@ -518,10 +518,19 @@ format::DagTable dag_table(const MultiresMesh& model,
     return table;
 }
 
+/// An object whose chunks and DAG table wait for the file's chunk order (place_chunks).
+struct PendingObject {
+    const MultiresMesh* model = nullptr;
+    std::vector<double> error_m;      ///< per group, as written in the JSON
+    std::vector<EncodedMesh> chunks;  ///< per group
+    std::size_t node = 0;             ///< its node in the JSON
+};
+
 /// The file's shared buffer views: every object's DAG table, every object's chunks.
 struct SharedViews {
     std::string tables;
     std::string chunks;
+    std::vector<PendingObject> objects;
 };
 
 /// One object: its base into `buffer`, its table and chunks into `shared`, its node, mesh,
@@ -552,32 +561,11 @@ void write_object(Json& json,
     const EncodedMesh base =
         base_mesh(grid, storage.matrix, model.roots(), options, "'" + name + "' base mesh");
 
-    // chunks, parents first (coarse first), each 4-byte aligned in the file's chunks view
-    std::string& chunk_bytes = shared.chunks;
-    std::vector<std::uint32_t> chunk_offsets(model.groups.size());
-    for (std::size_t g = model.groups.size(); g-- > 0;) {
-        if (chunk_bytes.size() + chunks[g].bytes.size() >
-            std::numeric_limits<std::uint32_t>::max()) {
-            throw Error(ErrorCode::Unsupported,
-                        "the chunks exceed 4 GiB (the DAG table's uint32 offsets)");
-        }
-        chunk_offsets[g] = static_cast<std::uint32_t>(chunk_bytes.size());
-        chunk_bytes += chunks[g].bytes;
-        chunk_bytes.resize((chunk_bytes.size() + 3) / 4 * 4, '\0');
-        stats.chunk_bytes += chunks[g].bytes.size();
-        ++stats.chunks;
-    }
     std::vector<double> error_m;
     for (const MultiresGroup& group : model.groups) {
         error_m.push_back(
             format::round_up_decimal(group.error_px * storage.error_m_per_px, kErrorDigits));
     }
-    const std::string table =
-        format::encode_dag_table(dag_table(model, storage, error_m, chunk_offsets, chunks));
-    stats.dag_bytes += table.size();
-    stats.groups += model.groups.size();
-    const std::size_t dag_offset = shared.tables.size();
-    shared.tables += table;  // a multiple of 4 bytes
     const int base_view = buffer.add(false, base.bytes);
 
     // unnamed, as the mesh: the node carries the object's name (JSON bytes)
@@ -599,7 +587,7 @@ void write_object(Json& json,
     node["name"] = name;
     node["mesh"] = json["meshes"].size() - 1;
     // no matrix: the storage node above every object carries it (JSON bytes)
-    Json ext = {{"dag", dag_offset}};
+    Json ext = {{"dag", 0}};  // the table's offset: set by place_chunks
     ext["errors"] = std::move(errors);
     ext["fullResolutionError"] = format::round_up_decimal(
         model.full_resolution_error_px * storage.error_m_per_px, kErrorDigits);
@@ -610,6 +598,66 @@ void write_object(Json& json,
     json["nodes"].push_back(std::move(node));
     json["nodes"][kStorageNode]["children"].push_back(json["nodes"].size() - 1);
     ++stats.objects;
+    shared.objects.push_back(
+        {&model, std::move(error_m), std::move(chunks), json["nodes"].size() - 1});
+}
+
+/// Lays out every object's chunks in the file's chunks view, each 4-byte aligned, in the order a
+/// viewer of the whole scene wants them: by decreasing error bound (metres), over all objects
+/// together (so the chunks a view wants at some tau are, for a view of the whole model, about one
+/// prefix of the view: few, long range requests), ties by object, then parents before children;
+/// then writes each object's DAG table with its chunk ranges.
+void place_chunks(Json& json,
+                  SharedViews& shared,
+                  ProgressiveStats& stats,
+                  const StorageFrame& storage) {
+    struct Slot {
+        double error;
+        std::size_t object, group;
+    };
+    std::vector<Slot> order;
+    for (std::size_t o = 0; o < shared.objects.size(); ++o) {
+        for (std::size_t g = 0; g < shared.objects[o].chunks.size(); ++g) {
+            order.push_back({shared.objects[o].error_m[g], o, g});
+        }
+    }
+    std::sort(order.begin(), order.end(), [](const Slot& a, const Slot& b) {
+        if (a.error != b.error) {
+            return a.error > b.error;
+        }
+        if (a.object != b.object) {
+            return a.object < b.object;
+        }
+        return a.group > b.group;  // groups are listed children first
+    });
+    std::vector<std::vector<std::uint32_t>> offsets(shared.objects.size());
+    for (std::size_t o = 0; o < shared.objects.size(); ++o) {
+        offsets[o].resize(shared.objects[o].chunks.size());
+    }
+    std::string& chunk_bytes = shared.chunks;
+    for (const Slot& slot : order) {
+        const std::string& bytes = shared.objects[slot.object].chunks[slot.group].bytes;
+        if (chunk_bytes.size() + bytes.size() > std::numeric_limits<std::uint32_t>::max()) {
+            throw Error(ErrorCode::Unsupported,
+                        "the chunks exceed 4 GiB (the DAG table's uint32 offsets)");
+        }
+        offsets[slot.object][slot.group] = static_cast<std::uint32_t>(chunk_bytes.size());
+        chunk_bytes += bytes;
+        chunk_bytes.resize((chunk_bytes.size() + 3) / 4 * 4, '\0');
+        stats.chunk_bytes += bytes.size();
+        ++stats.chunks;
+    }
+    for (std::size_t o = 0; o < shared.objects.size(); ++o) {
+        const PendingObject& object = shared.objects[o];
+        const std::string table = format::encode_dag_table(
+            dag_table(*object.model, storage, object.error_m, offsets[o], object.chunks));
+        stats.dag_bytes += table.size();
+        stats.groups += object.model->groups.size();
+        json["nodes"][object.node]["extensions"][key(format::kExtension)]["dag"] =
+            shared.tables.size();
+        shared.tables += table;  // a multiple of 4 bytes
+    }
+    shared.objects.clear();
 }
 
 void check_object(const std::filesystem::path& path,
@@ -721,6 +769,11 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
                 fail(e.code(), path, e.what());
             }
         }
+    }
+    try {
+        place_chunks(json, shared, stats, storage);
+    } catch (const Error& e) {
+        fail(e.code(), path, e.what());
     }
     Json& ext = json["extensions"][key(format::kExtension)];
     ext["dag"] = buffer.add(false, shared.tables);

@@ -61,7 +61,8 @@ struct ProgressiveStats {
 /// model's own grid, so they are lossless and shared vertices bit-identical. Every encoded chunk
 /// and base is decoded again and compared with its clusters (triangles, orientation, coarse
 /// vertices from the slots) before anything is written. The buffer starts with every object's
-/// base and the tables (a first frame's bytes), then the chunks, coarse first.
+/// base and the tables (a first frame's bytes), then the chunks of all objects, coarse first (by
+/// decreasing error).
 ///
 /// Atomic per file (temporary file, then rename); for `.gltf` the buffer goes first, the JSON
 /// last. \throw Error{InvalidInput} for models that are not on a grid, empty scenes, bad colours,

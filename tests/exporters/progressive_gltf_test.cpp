@@ -567,9 +567,23 @@ TEST(ProgressiveGltf, GlbHoldsTheModelExactly) {
     EXPECT_GE(bin + views[ext["chunks"].get<int>()]["byteOffset"].get<std::size_t>(),
               stats.base_bytes);
     const std::string table = view_bytes(w, ext["dag"].get<int>()).substr(table_offset);
-    for (std::size_t g = 1; g < m.result.models[0].groups.size(); ++g) {
-        EXPECT_LT(table_u32(table, 16 + 32 * g + 16), table_u32(table, 16 + 32 * (g - 1) + 16))
-            << "group " << g << "'s chunk after its children's";
+    // chunks by decreasing error (as the JSON states it), each parent before its children
+    const MultiresMesh& model = m.result.models[0];
+    const Json& errors = w.json["nodes"][2]["extensions"]["STRATA_progressive_mesh"]["errors"];
+    const auto offset = [&](std::size_t g) { return table_u32(table, 16 + 32 * g + 16); };
+    for (std::size_t g = 0; g < model.groups.size(); ++g) {
+        for (std::size_t h = 0; h < model.groups.size(); ++h) {
+            if (errors[g].get<double>() > errors[h].get<double>()) {
+                EXPECT_LT(offset(g), offset(h)) << "group " << g << " (larger error) after " << h;
+            }
+        }
+        for (const std::uint32_t c : model.groups[g].consumed) {
+            const std::int32_t child = model.clusters[c].producer;
+            if (child >= 0) {
+                EXPECT_LT(offset(g), offset(std::size_t(child)))
+                    << "group " << g << "'s chunk after its child " << child << "'s";
+            }
+        }
     }
 }
 

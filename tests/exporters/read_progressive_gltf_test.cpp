@@ -320,7 +320,18 @@ TEST(ReadProgressiveGltf, CorruptFilesAreRejectedWithWhatAndWhere) {
                         std::memcpy(g.bin.data() + t + 16 + 12, &r, 4);
                     }),
                     "negative radius");
-    expect_rejected(mutated([&](Glb& g) { put32(g.bin, mutated.table(g) + 16 + 20, 1u << 30); }),
+    // (the chunk placed last in the view: a longer one before it would overlap the next)
+    std::size_t last_placed = 0;
+    for (std::size_t k = 1; k < groups; ++k) {
+        const std::size_t t = mutated.table(mutated.glb);
+        if (get32(mutated.glb.bin, t + 16 + 32 * k + 16) >
+            get32(mutated.glb.bin, t + 16 + 32 * last_placed + 16)) {
+            last_placed = k;
+        }
+    }
+    expect_rejected(mutated([&](Glb& g) {
+                        put32(g.bin, mutated.table(g) + 16 + 32 * last_placed + 20, 1u << 30);
+                    }),
                     "leaves the chunks buffer view");
     // chunks shared by every group (a small file that would decode one chunk many times)
     expect_rejected(mutated([&](Glb& g) {
