@@ -498,6 +498,14 @@ export function shadingNormals(positions, triangles, vertexCount, rings = 3) {
         if (!unitEdge(v, p, u) || !unitEdge(v, q, w)) return 0;
         return Math.acos(Math.min(1, Math.max(-1, u[0] * w[0] + u[1] * w[1] + u[2] * w[2])));
     };
+    // adds face normal (cx, cy, cz) / n weighted by its angle at v (no array per corner: the
+    // garbage of three per triangle was a tenth of a viewer's main thread while chunks arrived)
+    const addCorner = (v, p, q, cx, cy, cz, n) => {
+        const theta = angle(v, p, q) / n;
+        a[3 * v] += theta * cx;
+        a[3 * v + 1] += theta * cy;
+        a[3 * v + 2] += theta * cz;
+    };
     for (let t = 0; t < triangles.length; t += 3) {
         const i0 = triangles[t];
         const i1 = triangles[t + 1];
@@ -513,26 +521,25 @@ export function shadingNormals(positions, triangles, vertexCount, rings = 3) {
         const cz = ax * by - ay * bx;
         const n = Math.sqrt(cx * cx + cy * cy + cz * cz);
         if (!(n > 0)) continue;
-        for (const [v, p, q] of [
-            [i0, i1, i2],
-            [i1, i2, i0],
-            [i2, i0, i1],
-        ]) {
-            const theta = angle(v, p, q) / n;
-            a[3 * v] += theta * cx;
-            a[3 * v + 1] += theta * cy;
-            a[3 * v + 2] += theta * cz;
-        }
+        addCorner(i0, i1, i2, cx, cy, cz, n);
+        addCorner(i1, i2, i0, cx, cy, cz, n);
+        addCorner(i2, i0, i1, cx, cy, cz, n);
     }
     for (let v = 0; v < vertexCount; ++v) {
         const n = Math.hypot(a[3 * v], a[3 * v + 1], a[3 * v + 2]);
         if (n > 0) for (let k = 0; k < 3; ++k) a[3 * v + k] /= n;
     }
     const out = new Float32Array(3 * vertexCount);
+    const put = (v, x, y, z) => {
+        out[3 * v] = x;
+        out[3 * v + 1] = y;
+        out[3 * v + 2] = z;
+    };
     if (rings === 0) {
         for (let v = 0; v < vertexCount; ++v) {
             const zero = a[3 * v] === 0 && a[3 * v + 1] === 0 && a[3 * v + 2] === 0;
-            out.set(zero ? [0, 0, 1] : a.subarray(3 * v, 3 * v + 3), 3 * v);
+            if (zero) put(v, 0, 0, 1);
+            else put(v, a[3 * v], a[3 * v + 1], a[3 * v + 2]);
         }
         return out;
     }
@@ -553,7 +560,7 @@ export function shadingNormals(positions, triangles, vertexCount, rings = 3) {
     const ring = [];
     for (let v = 0; v < vertexCount; ++v) {
         if (start[v + 1] === start[v]) {
-            out.set([0, 0, 1], 3 * v);
+            put(v, 0, 0, 1);
             continue;
         }
         ring.length = 0;
@@ -593,8 +600,8 @@ export function shadingNormals(positions, triangles, vertexCount, rings = 3) {
             sz = a[3 * v + 2];
             n = Math.hypot(sx, sy, sz);
         }
-        if (n > 0) out.set([sx / n, sy / n, sz / n], 3 * v);
-        else out.set([0, 0, 1], 3 * v);
+        if (n > 0) put(v, sx / n, sy / n, sz / n);
+        else put(v, 0, 0, 1);
     }
     return out;
 }
