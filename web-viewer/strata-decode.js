@@ -557,25 +557,25 @@ export function shadingNormals(positions, triangles, vertexCount, rings = 3) {
         }
     }
     const stamp = new Int32Array(vertexCount).fill(-1);
-    const ring = [];
+    const ring = new Int32Array(vertexCount); // the rings of v, ring[0, size)
     for (let v = 0; v < vertexCount; ++v) {
         if (start[v + 1] === start[v]) {
             put(v, 0, 0, 1);
             continue;
         }
-        ring.length = 0;
-        ring.push(v);
+        let size = 0;
+        ring[size++] = v;
         stamp[v] = v;
         let layerBegin = 0;
         for (let depth = 0; depth < rings; ++depth) {
-            const layerEnd = ring.length;
+            const layerEnd = size;
             for (let r = layerBegin; r < layerEnd; ++r) {
                 const x = ring[r];
                 for (let e = start[x]; e < start[x + 1]; ++e) {
                     const y = adjacent[e];
                     if (stamp[y] !== v) {
                         stamp[y] = v;
-                        ring.push(y);
+                        ring[size++] = y;
                     }
                 }
             }
@@ -584,7 +584,8 @@ export function shadingNormals(positions, triangles, vertexCount, rings = 3) {
         let sx = 0;
         let sy = 0;
         let sz = 0;
-        for (const x of ring) {
+        for (let r = 0; r < size; ++r) {
+            const x = ring[r];
             // fade out normals 114-120 degrees from v's own (the other side of a thin part)
             const d = a[3 * x] * a[3 * v] + a[3 * x + 1] * a[3 * v + 1] + a[3 * x + 2] * a[3 * v + 2];
             const weight = Math.min(1, Math.max(0, (d + 0.5) / 0.1));
