@@ -739,6 +739,11 @@ private:
         collapse.max_error_px = std::min(
             options_.max_error_px,
             std::max(options_.error_growth * attempt.children_error, attempt.children_error + 0.5));
+        if (std::all_of(members.begin(), members.end(),
+                        [&](std::uint32_t c) { return mesh_.clusters[c].level == 0; })) {
+            collapse.max_error_px =
+                std::min(collapse.max_error_px, attempt.children_error + options_.first_level_px);
+        }
         attempt.result = collapse_edges(problem, meter_, collapse);
         attempt.shrunk = double(attempt.result.triangles.size()) <=
                          double(before) * (1.0 - options_.min_reduction);
@@ -876,6 +881,11 @@ MultiresMesh build_multires_mesh(const TriMesh& surface,
         throw Error(ErrorCode::InvalidInput, "multiresolution: keep_fraction " +
                                                  std::to_string(options.keep_fraction) +
                                                  ", expected a fraction between 0 and 1");
+    }
+    if (!(options.first_level_px > 0.0)) {
+        throw Error(ErrorCode::InvalidInput, "multiresolution: first_level_px " +
+                                                 std::to_string(options.first_level_px) +
+                                                 ", expected > 0");
     }
     DagBuilder builder(surface, meter, full_resolution_error_px, options);
     return builder.run();

@@ -3,14 +3,15 @@
 //
 //   progressive_size [--case SPEC]... [--sweep-case SPEC]... [--sweep-keep 0.25,0.35]
 //                    [--sweep-clusters 1024,2048] [--cluster-triangles N] [--keep-fraction F]
-//                    [--root-triangles N]
+//                    [--root-triangles N] [--first-level-px E]
 //                    [--gltfpack EXE] [--work DIR]
 //
 // SPEC: `phantom:NAME` (make_phantom) or `stack:PATH` (read_slice_stack); every non-zero label is
 // an object, as in `strata build`.
 //
 // For each --case: `reconstruct` (default options, or --cluster-triangles / --keep-fraction /
-// --root-triangles) and,
+// --root-triangles / --first-level-px: the first level at most E px above level 0, an extra level
+// near full resolution) and,
 // like `strata build`, write_progressive_gltf of every object on a grid into WORK/model.glb. Its
 // bytes (ProgressiveStats): total (the .glb: a full download, i.e. full resolution); base (GLB
 // header, JSON, DAG tables and base meshes: what a first frame needs) and its share; the JSON per
@@ -91,6 +92,7 @@ struct Arguments {
     std::size_t cluster_triangles = MultiresOptions{}.cluster_triangles;
     double keep_fraction = MultiresOptions{}.keep_fraction;
     std::size_t root_triangles = MultiresOptions{}.root_triangles;
+    double first_level_px = MultiresOptions{}.first_level_px;
     std::string gltfpack;
     std::filesystem::path work;
 };
@@ -99,8 +101,8 @@ std::string usage() {
     return "usage: progressive_size [--case phantom:NAME | --case stack:PATH]...\n"
            "                        [--sweep-case SPEC]... [--sweep-keep 0.25,0.35]\n"
            "                        [--sweep-clusters 1024,2048] [--cluster-triangles N]\n"
-           "                        [--keep-fraction F] [--root-triangles N] [--gltfpack EXE] "
-           "[--work DIR]\n";
+           "                        [--keep-fraction F] [--root-triangles N] [--first-level-px E]\n"
+           "                        [--gltfpack EXE] [--work DIR]\n";
 }
 
 std::size_t parse_count(const std::string& text, const std::string& what) {
@@ -118,7 +120,10 @@ std::size_t parse_count(const std::string& text, const std::string& what) {
     return value;
 }
 
-double parse_fraction(const std::string& text, const std::string& what) {
+/// A number in (0, below): below 1 (a fraction) or infinite (any finite positive number).
+double parse_positive(const std::string& text,
+                      const std::string& what,
+                      double below = std::numeric_limits<double>::infinity()) {
     std::size_t used = 0;
     double value = 0.0;
     try {
@@ -126,11 +131,17 @@ double parse_fraction(const std::string& text, const std::string& what) {
     } catch (const std::exception&) {
         used = 0;
     }
-    if (used == 0 || used != text.size() || !(value > 0.0) || !(value < 1.0)) {
-        throw Error{ErrorCode::InvalidInput,
-                    what + ": '" + text + "', expected a number in (0, 1)"};
+    if (used == 0 || used != text.size() || !(value > 0.0) || !std::isfinite(value) ||
+        !(value < below)) {
+        throw Error{ErrorCode::InvalidInput, what + ": '" + text + "', expected " +
+                                                 (below == 1.0 ? std::string("a number in (0, 1)")
+                                                               : std::string("a positive number"))};
     }
     return value;
+}
+
+double parse_fraction(const std::string& text, const std::string& what) {
+    return parse_positive(text, what, 1.0);
 }
 
 std::vector<std::string> split(const std::string& text) {
@@ -172,6 +183,8 @@ Arguments parse_arguments(int argc, char** argv) {
             args.keep_fraction = parse_fraction(value(i), "--keep-fraction");
         } else if (arg == "--root-triangles") {
             args.root_triangles = parse_count(value(i), "--root-triangles");
+        } else if (arg == "--first-level-px") {
+            args.first_level_px = parse_positive(value(i), "--first-level-px");
         } else if (arg == "--gltfpack") {
             args.gltfpack = value(i);
         } else if (arg == "--work") {
@@ -927,6 +940,7 @@ void run_case(const std::string& spec,
     options.multires.cluster_triangles = args.cluster_triangles;
     options.multires.keep_fraction = args.keep_fraction;
     options.multires.root_triangles = args.root_triangles;
+    options.multires.first_level_px = args.first_level_px;
     Report report;
     Reconstruction result = reconstruct(c.stack, options, report);
     const Objects objects = progressive_objects(result, notes, c.name);
