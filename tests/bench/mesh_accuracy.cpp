@@ -1,7 +1,7 @@
 // Surface accuracy of reconstructed meshes against a phantom's analytic solids.
 //
 //   mesh_accuracy --phantom NAME [--slice-spacing D] [--pixel-mm S] [--label N] [--no-clip]
-//                 [--json] MESH...
+//                 [--worst N] [--json] MESH...
 //
 // Regenerates the phantom with make_phantom(NAME, {pixel_mm = S, slice_spacing_px = D}), reads
 // each mesh (PLY, OBJ or STL; vertices in patient LPS mm, as `strata build` and
@@ -28,6 +28,9 @@
 // barycentric grid, n = ceil(2 sqrt(area_px2)) >= 1 (about 4 samples per px^2; n = 1: the
 // centroid), and |d| is taken at the sub-triangle centroids with weight area / n^2 (mean, RMS,
 // signed bias) and at those centroids plus the grid's lattice points, corners included (max).
+// Where the max sits: its sample's position (px) and signed distance; --worst N also lists the N
+// mesh vertices farthest from the truth (position px, slice index z / d, signed distance), to
+// find what part of a surface makes the max.
 //
 // Volume: the volume the mesh encloses (|signed volume| by the divergence theorem, px^3: closed
 // meshes oriented either way, as marching cubes' inward winding) against the volume of the union
@@ -75,6 +78,7 @@ struct Arguments {
     std::optional<std::uint16_t> label;  ///< compare with this label's objects only
     bool clip = true;                    ///< intersect solids with the stack's voxel extent
     bool json = false;
+    std::size_t worst = 0;  ///< list this many vertices farthest from the truth
     std::vector<std::filesystem::path> meshes;
 };
 
@@ -94,9 +98,13 @@ struct MeshAccuracy {
     std::size_t triangles = 0;
     std::size_t samples = 0;
     double area_px2 = 0.0;
-    double mean_px = 0.0;     ///< area-weighted mean of |d|
-    double rms_px = 0.0;      ///< area-weighted root mean square of d
-    double max_px = 0.0;      ///< largest sampled |d|
+    double mean_px = 0.0;        ///< area-weighted mean of |d|
+    double rms_px = 0.0;         ///< area-weighted root mean square of d
+    double max_px = 0.0;         ///< largest sampled |d|
+    Vec3 max_at_px;              ///< where: the sample of largest |d|
+    double max_signed_px = 0.0;  ///< its signed d
+    /// The vertices farthest from the truth (--worst): position px and signed d, worst first.
+    std::vector<std::pair<Vec3, double>> worst;
     double bias_px = 0.0;     ///< area-weighted mean of signed d (> 0: mesh lies outside the truth)
     Vec3 centroid_px;         ///< area-weighted centroid of the surface
     double volume_px3 = 0.0;  ///< volume enclosed by the mesh
@@ -107,7 +115,7 @@ struct MeshAccuracy {
 
 const char* usage() {
     return "usage: mesh_accuracy --phantom NAME [--slice-spacing D] [--pixel-mm S] [--label N]\n"
-           "                     [--no-clip] [--json] MESH...\n"
+           "                     [--no-clip] [--worst N] [--json] MESH...\n"
            "Distance from each mesh (PLY/OBJ/STL, LPS mm) to the phantom's true surface:\n"
            "triangles, area-weighted mean and RMS and the max of |d|, in px and mm.\n";
 }
@@ -150,6 +158,14 @@ Arguments parse_arguments(int argc, char** argv) {
                     "--label: expected an integer label in [1, 65535], found " + std::to_string(v));
             }
             a.label = static_cast<std::uint16_t>(v);
+        } else if (arg == "--worst") {
+            const double v = parse_number(arg, value());
+            if (v < 0 || v > 1e6 || v != std::floor(v)) {
+                throw Error(
+                    ErrorCode::InvalidInput,
+                    "--worst: expected a count in [0, 1000000], found " + std::to_string(v));
+            }
+            a.worst = static_cast<std::size_t>(v);
         } else if (arg == "--no-clip") {
             a.clip = false;
         } else if (arg == "--json") {
@@ -335,7 +351,8 @@ double distance_px(const std::vector<TruthSolid>& truth,
 MeshAccuracy measure(const std::filesystem::path& path,
                      const Phantom& phantom,
                      const std::vector<TruthSolid>& truth,
-                     std::optional<std::uint16_t> label) {
+                     std::optional<std::uint16_t> label,
+                     std::size_t worst) {
     const TriMesh mesh = read_mesh(path);
     const std::uint16_t file_label = label_from_file_name(truth, path);
     const Affine3 world_to_index = inverse(phantom.stack.index_to_world);
@@ -369,10 +386,17 @@ MeshAccuracy measure(const std::filesystem::path& path,
             std::clamp(static_cast<int>(std::ceil(2.0 * std::sqrt(area))), 1, kMaxGridLevel);
         auto at = [&](double u, double v) { return a + u * ab + v * ac; };
         // max over the lattice points of the grid, corners included
+        auto keep_max = [&](Vec3 p, double dist) {
+            if (std::abs(dist) > r.max_px) {
+                r.max_px = std::abs(dist);
+                r.max_at_px = p;
+                r.max_signed_px = dist;
+            }
+        };
         for (int i = 0; i <= n; ++i) {
             for (int j = 0; i + j <= n; ++j) {
-                const double dist = distance_px(truth, which, at(double(i) / n, double(j) / n));
-                r.max_px = std::max(r.max_px, std::abs(dist));
+                const Vec3 p = at(double(i) / n, double(j) / n);
+                keep_max(p, distance_px(truth, which, p));
             }
         }
         // weighted statistics over the n^2 sub-triangle centroids (upward then downward ones)
@@ -380,7 +404,7 @@ MeshAccuracy measure(const std::filesystem::path& path,
         auto sample = [&](double u, double v) {
             const Vec3 p = at(u, v);
             const double dist = distance_px(truth, which, p);
-            r.max_px = std::max(r.max_px, std::abs(dist));
+            keep_max(p, dist);
             sum_abs += weight * std::abs(dist);
             sum_sq += weight * dist * dist;
             sum_signed += weight * dist;
@@ -402,6 +426,36 @@ MeshAccuracy measure(const std::filesystem::path& path,
         r.rms_px = std::sqrt(sum_sq / r.area_px2);
         r.bias_px = sum_signed / r.area_px2;
         r.centroid_px = (1.0 / r.area_px2) * sum_centroid;
+    }
+    if (worst > 0) {
+        // each vertex against the solids of the labels of its triangles
+        std::vector<double> dist(px.size(), 0.0);
+        std::vector<bool> seen(px.size(), false);
+        for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+            const std::uint16_t tri_label =
+                label ? *label : (mesh.labels.empty() ? file_label : mesh.labels[t]);
+            const std::vector<std::size_t> which = candidates(truth, tri_label);
+            for (std::uint32_t v : mesh.triangles[t]) {
+                const double e = distance_px(truth, which, px[v]);
+                if (!seen[v] || std::abs(e) > std::abs(dist[v])) {
+                    dist[v] = e;
+                }
+                seen[v] = true;
+            }
+        }
+        std::vector<std::size_t> order;
+        for (std::size_t v = 0; v < px.size(); ++v) {
+            if (seen[v]) {
+                order.push_back(v);
+            }
+        }
+        const std::size_t n = std::min(worst, order.size());
+        std::partial_sort(
+            order.begin(), order.begin() + std::ptrdiff_t(n), order.end(),
+            [&](std::size_t u, std::size_t v) { return std::abs(dist[u]) > std::abs(dist[v]); });
+        for (std::size_t i = 0; i < n; ++i) {
+            r.worst.emplace_back(px[order[i]], dist[order[i]]);
+        }
     }
     std::vector<std::size_t> compared;
     for (std::size_t i = 0; i < truth.size(); ++i) {
@@ -436,6 +490,17 @@ nlohmann::json to_json(const MeshAccuracy& r, const Phantom& phantom) {
     j["mean_mm"] = r.mean_px * mm;
     j["rms_mm"] = r.rms_px * mm;
     j["max_mm"] = r.max_px * mm;
+    j["max_at_px"] = {r.max_at_px.x, r.max_at_px.y, r.max_at_px.z};
+    j["max_signed_px"] = r.max_signed_px;
+    if (!r.worst.empty()) {
+        nlohmann::json w = nlohmann::json::array();
+        for (const auto& [p, dist] : r.worst) {
+            w.push_back({{"at_px", {p.x, p.y, p.z}},
+                         {"slice", p.z / phantom.slice_spacing_px},
+                         {"signed_px", dist}});
+        }
+        j["worst_vertices"] = w;
+    }
     j["centroid_px"] = {r.centroid_px.x, r.centroid_px.y, r.centroid_px.z};
     j["volume_px3"] = r.volume_px3;
     j["truth_volume_px3"] = r.truth_volume_px3;
@@ -471,7 +536,7 @@ int run(int argc, char** argv) {
     // leaves no partial table or JSON behind
     std::vector<MeshAccuracy> results;
     for (const std::filesystem::path& path : args.meshes) {
-        results.push_back(measure(path, phantom, truth, args.label));
+        results.push_back(measure(path, phantom, truth, args.label, args.worst));
     }
     if (args.json) {
         nlohmann::json all = nlohmann::json::array();
@@ -495,6 +560,12 @@ int run(int argc, char** argv) {
                   << r.mean_px * mm << std::setw(10) << r.rms_px * mm << std::setw(10)
                   << r.max_px * mm << '\n'
                   << std::defaultfloat;
+        std::cout << "  max at (" << r.max_at_px.x << ", " << r.max_at_px.y << ", " << r.max_at_px.z
+                  << ") px, signed " << r.max_signed_px << " px\n";
+        for (const auto& [p, dist] : r.worst) {
+            std::cout << "  vertex (" << p.x << ", " << p.y << ", " << p.z << ") px, slice "
+                      << p.z / phantom.slice_spacing_px << ", signed " << dist << " px\n";
+        }
     }
     return kExitOk;
 }
