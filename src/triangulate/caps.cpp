@@ -308,4 +308,175 @@ bool LabelSurface::dome_cap(Cdt& cdt,
     return false;
 }
 
+double LabelSurface::background_area(std::uint32_t slice, std::uint32_t component) const {
+    double area = 0.0;
+    for (std::uint32_t local = 0; local < rings_[slice].size(); ++local) {
+        const Contour& c = contours_.slices[slice].contours[label_contours_[slice][local]];
+        if (!c.is_hole || c.region != component) {
+            continue;
+        }
+        const Ring& ring = rings_[slice][local];
+        double twice = 0.0;
+        for (std::size_t i = 0; i < ring.points.size(); ++i) {
+            const Vec2 a = to_vec(ring.points[i]);
+            const Vec2 b = to_vec(ring.points[(i + 1) % ring.points.size()]);
+            twice += a.x * b.y - b.x * a.y;
+        }
+        area += 0.5 * std::abs(twice);
+    }
+    return area;
+}
+
+namespace {
+
+/// Whether q lies inside the closed polygon `ring` (even-odd).
+bool inside_ring(const std::vector<Vec2>& ring, Vec2 q) {
+    bool inside = false;
+    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+        const Vec2 a = ring[i];
+        const Vec2 b = ring[j];
+        if ((a.y > q.y) != (b.y > q.y) && q.x < a.x + (q.y - a.y) * (b.x - a.x) / (b.y - a.y)) {
+            inside = !inside;
+        }
+    }
+    return inside;
+}
+
+}  // namespace
+
+/// The cavities that close inside slab k. A hole contour of slice k (k+1) bounds a background
+/// component; when no background of the other slice is linked to it, the label covers the
+/// whole hole there and the slab's surface over the hole is the cavity's end. Like an end cap,
+/// the cavity goes on past its last slice by a height the slices do not show: the paraboloid
+/// that continues the cavity's slab on the other side, H = d A / (A' - A) from the hole's
+/// area A and its partners' A' (shared by area), at most cap_reach d, half a slab where the
+/// areas do not shrink. Only a hole with nothing inside it (no other contour of either slice)
+/// is domed.
+std::vector<LabelSurface::Pocket> LabelSurface::find_pockets(std::uint32_t k) const {
+    std::vector<Pocket> pockets;
+    if (level_z_ != nullptr || options_.cap_reach <= 0.0) {
+        return pockets;
+    }
+    const double d = options_.slice_spacing_px;
+    for (int side = 0; side < 2; ++side) {
+        const std::uint32_t slice = k + std::uint32_t(side);
+        const std::uint32_t other = side == 0 ? k + 1 : k;
+        const DistanceField* f = field(slice);
+        if (f == nullptr) {
+            continue;
+        }
+        for (std::uint32_t local = 0; local < rings_[slice].size(); ++local) {
+            const Contour& c = contours_.slices[slice].contours[label_contours_[slice][local]];
+            if (!c.is_hole) {
+                continue;
+            }
+            const std::uint32_t component = c.region;
+            bool linked = false;
+            for (const auto& [lower, upper] : background_links_[k]) {
+                const auto& here = side == 0 ? lower : upper;
+                const auto& there = side == 0 ? upper : lower;
+                if (!there.empty() &&
+                    std::find(here.begin(), here.end(), component) != here.end()) {
+                    linked = true;
+                }
+            }
+            if (linked) {
+                continue;
+            }
+            Pocket pocket;
+            pocket.upper = side == 1;
+            pocket.field = f;
+            for (const Point& p : rings_[slice][local].points) {
+                pocket.ring.push_back(to_vec(p));
+            }
+            pocket.lo = pocket.hi = pocket.ring.front();
+            for (const Vec2 p : pocket.ring) {
+                pocket.lo = {std::min(pocket.lo.x, p.x), std::min(pocket.lo.y, p.y)};
+                pocket.hi = {std::max(pocket.hi.x, p.x), std::max(pocket.hi.y, p.y)};
+            }
+            // Nothing inside: no other ring of either slice has a point in the hole.
+            bool empty = true;
+            for (const std::uint32_t s : {slice, other}) {
+                for (std::uint32_t l = 0; l < rings_[s].size() && empty; ++l) {
+                    if (s == slice && l == local) {
+                        continue;
+                    }
+                    for (const Point& p : rings_[s][l].points) {
+                        if (inside_ring(pocket.ring, to_vec(p))) {
+                            empty = false;
+                            break;
+                        }
+                    }
+                }
+            }
+            if (!empty) {
+                continue;
+            }
+            // Dmax: the largest field value at the field's nodes inside the hole.
+            const double cell = DistanceField::kCellPx;
+            for (double y = std::ceil((pocket.lo.y - f->origin_y) / cell) * cell + f->origin_y;
+                 y <= pocket.hi.y; y += cell) {
+                for (double x = std::ceil((pocket.lo.x - f->origin_x) / cell) * cell + f->origin_x;
+                     x <= pocket.hi.x; x += cell) {
+                    if (inside_ring(pocket.ring, {x, y})) {
+                        pocket.dmax = std::max(pocket.dmax, sample_field(f, {x, y}));
+                    }
+                }
+            }
+            if (!(pocket.dmax > 1.0)) {
+                continue;
+            }
+            // H from the hole's partners on the far side (slab k-1 for a hole of slice k).
+            const double area = background_area(slice, component);
+            double partner_area = 0.0;
+            const bool far_exists = side == 0 ? k >= 1 : k + 2 < contours_.slices.size();
+            if (far_exists) {
+                const std::uint32_t far_slab = side == 0 ? k - 1 : k + 1;
+                const std::uint32_t far_slice = side == 0 ? k - 1 : k + 2;
+                for (const auto& [lower, upper] : background_links_[far_slab]) {
+                    const auto& here = side == 0 ? upper : lower;
+                    const auto& there = side == 0 ? lower : upper;
+                    if (std::find(here.begin(), here.end(), component) == here.end()) {
+                        continue;
+                    }
+                    double siblings = 0.0;
+                    for (const std::uint32_t h : here) {
+                        siblings += background_area(slice, h);
+                    }
+                    double far = 0.0;
+                    for (const std::uint32_t t : there) {
+                        far += background_area(far_slice, t);
+                    }
+                    partner_area += far * (siblings > 0.0 ? area / siblings : 1.0);
+                }
+            }
+            double height = 0.5 * d;
+            if (partner_area > area && area > 0.0) {
+                height = d * area / (partner_area - area);
+            }
+            pocket.height = std::min(height, options_.cap_reach * d) / d;
+            pockets.push_back(std::move(pocket));
+        }
+    }
+    return pockets;
+}
+
+double LabelSurface::pocket_t(Vec2 q, std::uint32_t k, double t) const {
+    if (pockets_slab_ != std::int64_t(k)) {
+        pockets_ = find_pockets(k);
+        pockets_slab_ = k;
+    }
+    for (const Pocket& pocket : pockets_) {
+        if (q.x < pocket.lo.x || q.y < pocket.lo.y || q.x > pocket.hi.x || q.y > pocket.hi.y ||
+            !inside_ring(pocket.ring, q)) {
+            continue;
+        }
+        const double depth = std::max(sample_field(pocket.field, q), 0.0);
+        const double u = 1.0 - std::min(depth / pocket.dmax, 1.0);
+        const double dome = pocket.height * (1.0 - u * u);
+        return pocket.upper ? std::min(t, 1.0 - dome) : std::max(t, dome);
+    }
+    return t;
+}
+
 }  // namespace strata::detail

@@ -199,6 +199,7 @@ double LabelSurface::height_t(const Point& p, std::uint32_t k) const {
     const double pb = slab_rings_[1].distance(q);
     const double rings = pa + pb > 0.0 ? pa / (pa + pb) : 0.5;
     t = a * b < 0.0 ? t + 0.5 * (rings - a / (a - b)) : rings;
+    t = pocket_t(q, k, t);  // a cavity that closes here is domed (caps.cpp)
     return std::clamp(t, 0.05, 0.95);
 }
 

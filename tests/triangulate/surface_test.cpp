@@ -294,6 +294,46 @@ TEST(Surface, DomedCapsReachPastTheEndSlicesTowardThePoles) {
     EXPECT_NEAR(hi, 82.0, 0.75);
 }
 
+// The hollow sphere's cavity (radius 20 about (64, 64, 42), d = 4 px: holes on slices 6..15 at
+// z = 24..60) ends 2 px past its last holes, between slices. Its ends are domed like end caps:
+// the cavity's surface reaches toward its poles (z = 22 and 62), no farther than cap_reach d
+// past the last holes; without domes (cap_reach 0) the interpolation keeps it near the slices.
+TEST(Surface, CavityEndsAreDomedTowardTheirPoles) {
+    const Phantom phantom = make_phantom("hollow_sphere");
+    Report report;
+    ReconstructOptions options;
+    options.simplify = false;
+    const Reconstruction domed = reconstruct(phantom.stack, options, report);
+    options.triangulate.cap_reach = 0.0;
+    const Reconstruction flat = reconstruct(phantom.stack, options, report);
+    ASSERT_EQ(domed.surfaces.size(), 1u);
+    ASSERT_TRUE(test::independent_problem(phantom.stack, domed.surfaces[0]).empty());
+    const double d = domed.slice_spacing_px;
+    ASSERT_EQ(d, 4.0);
+    // the cavity's vertices: nearer the centre than the middle of the shell
+    auto cavity_range = [](const TriMesh& mesh) {
+        double lo = 1e300, hi = -1e300;
+        for (const Vec3& p : mesh.positions) {
+            if (norm(p - Vec3{64.0, 64.0, 42.0}) < 30.0) {
+                lo = std::min(lo, p.z);
+                hi = std::max(hi, p.z);
+            }
+        }
+        return std::pair{lo, hi};
+    };
+    const auto [lo, hi] = cavity_range(domed.surfaces[0].mesh);
+    const auto [flat_lo, flat_hi] = cavity_range(flat.surfaces[0].mesh);
+    std::cout << "cavity z range: domed [" << lo << ", " << hi << "], without domes [" << flat_lo
+              << ", " << flat_hi << "] px\n";
+    const double snap = d / 32.0;  // half a quantization step in z
+    EXPECT_GE(lo, 24.0 - 0.75 * d - snap);
+    EXPECT_LE(hi, 60.0 + 0.75 * d + snap);
+    EXPECT_NEAR(lo, 22.0, 0.75);  // the cavity's poles
+    EXPECT_NEAR(hi, 62.0, 0.75);
+    EXPECT_GT(flat_lo - 22.0, lo - 22.0 + 0.5);
+    EXPECT_GT(62.0 - flat_hi, 62.0 - hi + 0.5);
+}
+
 // Between slices, the linear D_k / (D_k - D_k+1) cuts every convex curve inward; the cubic height
 // puts the ball's vertices there on its true surface on average.
 TEST(Surface, CubicHeightFollowsTheBallBetweenSlices) {

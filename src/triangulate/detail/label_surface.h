@@ -310,6 +310,23 @@ private:
     /// Signed area (px^2) of region `region` of `slice`: its outer contours less its holes.
     double region_area(std::uint32_t slice, std::uint32_t region) const;
     double cap_height(std::uint32_t k, std::uint32_t region, bool top) const;
+    /// A cavity (background component inside the label, bounded by one hole contour) that
+    /// closes inside a slab: the hole of slice k with no background partner on slice k+1
+    /// (`upper` false), or the hole of slice k+1 with none on slice k.
+    struct Pocket {
+        std::vector<Vec2> ring;                ///< the hole contour's ring
+        Vec2 lo, hi;                           ///< its bounding box
+        const DistanceField* field = nullptr;  ///< its slice's field (positive in the hole)
+        double dmax = 0.0;                     ///< the field's largest value in the hole, px
+        double height = 0.0;                   ///< the dome's height, in slabs (t units)
+        bool upper = false;                    ///< a hole of slice k+1 closing downward
+    };
+    std::vector<Pocket> find_pockets(std::uint32_t k) const;
+    /// The height t over a cavity that closes in slab k: the larger of t and the dome that
+    /// continues the cavity (its end is domed like an end cap), else t.
+    double pocket_t(Vec2 q, std::uint32_t k, double t) const;
+    /// Area (px^2) inside the hole contours of background component `component` of `slice`.
+    double background_area(std::uint32_t slice, std::uint32_t component) const;
 
     std::uint32_t add_vertex(Vec2 p, double z) {
         surface_.mesh.positions.push_back({p.x, p.y, z});
@@ -385,6 +402,9 @@ private:
     /// The contour rings of the slab being built's two slices (height_t).
     std::array<SegmentGrid, 2> slab_rings_;
     std::vector<std::uint32_t> mismatched_slabs_;
+    /// The closing cavities of slab `pockets_slab_` (pocket_t), found on first use.
+    mutable std::int64_t pockets_slab_ = -1;
+    mutable std::vector<Pocket> pockets_;
 
     /// Collinear overlaps of a slice k edge and a slice k+1 edge (slice, local contour, edge):
     /// every point on one edge inside the overlap must be on the other too.
