@@ -364,8 +364,13 @@ bool LabelSurface::resolve_corner(
             passed.push_back(cur);
         }
     };
-    std::vector<FaceHandle> cw_faces{f};
-    std::vector<FaceHandle> ccw_faces;
+    // note: scratch kept per thread: this runs for every face corner of every slab (1.9 M
+    // allocations on TotalSegmentator); resolve_corner does not call itself
+    thread_local std::vector<FaceHandle> cw_faces;
+    thread_local std::vector<FaceHandle> ccw_faces;
+    thread_local std::vector<FaceHandle> wedge;
+    cw_faces.assign(1, f);
+    ccw_faces.clear();
     Level cw_class = kUnset;
     Level ccw_class = kUnset;
     if (!walk(true, cw_faces, cw_class)) {
@@ -382,7 +387,7 @@ bool LabelSurface::resolve_corner(
         return false;
     }
     // Wedge in order from the clockwise boundary to the counter-clockwise one.
-    std::vector<FaceHandle> wedge(cw_faces.rbegin(), cw_faces.rend());
+    wedge.assign(cw_faces.rbegin(), cw_faces.rend());
     wedge.insert(wedge.end(), ccw_faces.begin(), ccw_faces.end());
     if (cw_class == ccw_class) {
         for (FaceHandle w : wedge) {

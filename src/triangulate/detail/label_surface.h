@@ -140,16 +140,27 @@ public:
         }
         nx_ = std::int64_t((hi_.x - lo_.x) / kCell) + 1;
         ny_ = std::int64_t((hi_.y - lo_.y) / kCell) + 1;
-        cells_.assign(std::size_t(nx_ * ny_), {});
-        for (std::uint32_t i = 0; i < segments_.size(); ++i) {
-            const auto& s = segments_[i];
+        // each cell's segments in increasing order, as one array (counted, then filled)
+        start_.assign(std::size_t(nx_ * ny_) + 1, 0);
+        auto for_cells = [&](const std::array<Vec2, 2>& s, auto&& fn) {
             const auto [i0, j0] = cell(Vec2{std::min(s[0].x, s[1].x), std::min(s[0].y, s[1].y)});
             const auto [i1, j1] = cell(Vec2{std::max(s[0].x, s[1].x), std::max(s[0].y, s[1].y)});
             for (std::int64_t j = j0; j <= j1; ++j) {
                 for (std::int64_t c = i0; c <= i1; ++c) {
-                    cells_[std::size_t(j * nx_ + c)].push_back(i);
+                    fn(std::size_t(j * nx_ + c));
                 }
             }
+        };
+        for (const auto& s : segments_) {
+            for_cells(s, [&](std::size_t c) { ++start_[c + 1]; });
+        }
+        for (std::size_t c = 1; c < start_.size(); ++c) {
+            start_[c] += start_[c - 1];
+        }
+        cell_segments_.resize(start_.back());
+        std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+        for (std::uint32_t i = 0; i < segments_.size(); ++i) {
+            for_cells(segments_[i], [&](std::size_t c) { cell_segments_[fill[c]++] = i; });
         }
     }
 
@@ -176,8 +187,9 @@ public:
                     if (i < 0 || i >= nx_) {
                         continue;
                     }
-                    for (const std::uint32_t s : cells_[std::size_t(j * nx_ + i)]) {
-                        best = std::min(best, squared_distance(q, segments_[s]));
+                    const std::size_t c = std::size_t(j * nx_ + i);
+                    for (std::uint32_t s = start_[c]; s < start_[c + 1]; ++s) {
+                        best = std::min(best, squared_distance(q, segments_[cell_segments_[s]]));
                     }
                 }
             }
@@ -200,7 +212,8 @@ private:
         return dot(q - c, q - c);
     }
     std::vector<std::array<Vec2, 2>> segments_;
-    std::vector<std::vector<std::uint32_t>> cells_;
+    std::vector<std::uint32_t> start_;          ///< cell c's segments: [start_[c], start_[c + 1])
+    std::vector<std::uint32_t> cell_segments_;  ///< segment indices, cell after cell
     Vec2 lo_{};
     Vec2 hi_{};
     std::int64_t nx_ = 0;
