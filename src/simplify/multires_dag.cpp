@@ -76,19 +76,26 @@ struct Box {
     }
 };
 
-/// Distance from p to box b (a lower bound of the distance to anything inside it).
-double box_distance(const Vec3& p, const Box& b) {
+/// Squared distance from p to box b (a lower bound of the squared distance to anything inside).
+inline double box_distance2(const Vec3& p, const Box& b) {
     double sum = 0.0;
     for (int a = 0; a < 3; ++a) {
         const double d = std::max({b.lo[a] - p[a], 0.0, p[a] - b.hi[a]});
         sum += d * d;
     }
-    return std::sqrt(sum);
+    return sum;
 }
 
-/// Slack (px) of box_distance as a lower bound of point_triangle_distance_px: far above the
+/// Slack (px) of a box's distance as a lower bound of point_triangle_distance_px: far above the
 /// rounding of either at slice-space magnitudes (coordinates below 1e5 px).
 constexpr double kBoxSlackPx = 1e-9;
+
+/// Whether the distance whose square is `distance2` is at least `bound` + kBoxSlackPx (no square
+/// root taken: the slack covers the rounding of the squares as well).
+inline bool at_least(double distance2, double bound) {
+    const double r = bound + kBoxSlackPx;
+    return r <= 0.0 || distance2 >= r * r;
+}
 
 Vec3 centroid(const std::vector<Vec3>& positions, const Tri& t) {
     return (1.0 / 3.0) * (positions[t[0]] + positions[t[1]] + positions[t[2]]);
@@ -213,17 +220,21 @@ public:
         double& nearest_a = found.nearest_a;
         double& nearest_b = found.nearest_b;
         std::uint32_t& best_triangle = found.triangle;
+        // note: a triangle whose box is no nearer to either end than what is known cannot
+        // change anything (the box distance is below the triangle's, and kBoxSlackPx covers the
+        // rounding of both)
+        auto cannot_change = [&](const Box& b) {
+            const double la2 = box_distance2(piece.a, b);
+            if (!at_least(la2, nearest_a)) {
+                return false;
+            }
+            const double lb2 = box_distance2(piece.b, b);
+            return at_least(lb2, nearest_b) &&
+                   at_least(std::max(la2, lb2), best - piece.deviation_px);
+        };
         auto offer = [&](std::uint32_t t) {
-            // note: a triangle whose box is no nearer to either end than what is known cannot
-            // change anything (the box distance is below the triangle's, and kBoxSlackPx
-            // covers the rounding of both)
-            const Box& b = boxes_[t];
-            const double la = box_distance(piece.a, b) - kBoxSlackPx;
-            if (la >= nearest_a) {
-                const double lb = box_distance(piece.b, b) - kBoxSlackPx;
-                if (lb >= nearest_b && piece.deviation_px + std::max(la, lb) >= best) {
-                    return;
-                }
+            if (cannot_change(boxes_[t])) {
+                return;
             }
             const std::array<Vec3, 3> c = corners(t);
             const double da = point_triangle_distance_px(piece.a, c);
