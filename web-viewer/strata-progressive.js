@@ -1129,8 +1129,19 @@ export class StrataProgressivePlugin {
         this.lastArgs = args;
         if (this.setupState === 'waiting') {
             this.setupState = 'running';
+            // the DAG tables and the requests of this view's target cut at once (after this
+            // update's frame is drawn, in its task), the heavy setup in a task of its own: the
+            // network overlaps the setup
+            const early = this.readTables(this.setupResult).then((tables) => {
+                try {
+                    this.requestTargetCut(tables);
+                } catch (error) {
+                    this.errors.push(`${error.message ?? error}`);
+                }
+                return tables;
+            });
             setTimeout(() =>
-                this.setup(this.setupResult).finally(() => {
+                this.setup(this.setupResult, early).finally(() => {
                     this.setupState = 'done';
                     this.setupResult = null;
                     this.resolveReady();
@@ -1152,22 +1163,12 @@ export class StrataProgressivePlugin {
 
     /// One controller per object node with the extension (an object whose data is invalid keeps
     /// its base mesh: schema/README.md, Validation).
-    async setup(result) {
+    async setup(result, early = null) {
         const setupStart = performance.now();
         const json = this.parser.json;
-        result.scene.updateMatrixWorld(true);
-        const objects = new Map();
-        result.scene.traverse((o) => {
-            const node = this.parser.associations.get(o)?.nodes;
-            if (node !== undefined && !objects.has(node)) objects.set(node, o);
-        });
-        for (const { nodeIndex, node, ext } of progressiveNodes(json, kExtension)) {
-            const object = objects.get(nodeIndex);
+        const tables = await (early ?? this.readTables(result));
+        for (const { nodeIndex, node, object, table } of tables) {
             try {
-                if (object === undefined) throw new Error('not in the scene');
-                const info = readExtension(ext, json, `node ${nodeIndex} (${node.name})/extensions/${kExtension}`);
-                const bytes = new Uint8Array(await this.parser.getDependency('bufferView', info.dag));
-                const table = parseDagTable(bytes, info, chunksByteLength(info, json), `node ${nodeIndex} DAG table`);
                 let base = null;
                 object.traverse((o) => {
                     const a = this.parser.associations.get(o);
@@ -1187,8 +1188,131 @@ export class StrataProgressivePlugin {
         }
         for (const range of this.baseRanges) this.stash(range, range.bytes);
         this.baseRanges = [];
+        this.controllersMade = true; // ranges arriving from now on are stashed at once
         this.stats.setupMs = performance.now() - setupStart;
         mark('strata:setup-done');
+    }
+
+    /// Each object node's DAG table (light work): [{ nodeIndex, node, object, table }]; an object
+    /// whose extension or table is invalid keeps its base mesh (schema/README.md, Validation).
+    async readTables(result) {
+        const json = this.parser.json;
+        result.scene.updateMatrixWorld(true);
+        const objects = new Map();
+        result.scene.traverse((o) => {
+            const node = this.parser.associations.get(o)?.nodes;
+            if (node !== undefined && !objects.has(node)) objects.set(node, o);
+        });
+        const tables = [];
+        for (const { nodeIndex, node, ext } of progressiveNodes(json, kExtension)) {
+            const object = objects.get(nodeIndex);
+            try {
+                if (object === undefined) throw new Error('not in the scene');
+                const info = readExtension(ext, json, `node ${nodeIndex} (${node.name})/extensions/${kExtension}`);
+                const bytes = new Uint8Array(await this.parser.getDependency('bufferView', info.dag));
+                const table = parseDagTable(bytes, info, chunksByteLength(info, json), `node ${nodeIndex} DAG table`);
+                tables.push({ nodeIndex, node, object, table });
+            } catch (error) {
+                // fall back to the base mesh (schema/README.md, Validation)
+                this.errors.push(`node ${nodeIndex}: ${error.message ?? error}`);
+                console.warn(`${kExtension}: node ${nodeIndex} uses its base mesh only: ${error.message ?? error}`);
+            }
+        }
+        return tables;
+    }
+
+    /// During a deferred setup, before the objects' controllers are made: selects the target cut
+    /// of the first update's view from the DAG tables alone (the base loaded, prefetch of every
+    /// level below it) and requests its chunks' bytes in coalesced ranges (at most `concurrency`),
+    /// so that they travel while the setup runs. They arrive as requests in flight without items:
+    /// the pump waits for the chunks inside them, then takes them from the stash.
+    requestTargetCut(tables) {
+        const args = this.lastArgs;
+        const chunksView = this.parser.json.extensions?.[kExtension]?.chunks;
+        if (!args || !this.options.prefetch || chunksView === undefined || tables.length === 0) return;
+        const def = this.parser.json.bufferViews[chunksView];
+        if (def === undefined || !this.isRanged(def.buffer)) return;
+        const [camera, viewportHeightPx, tauPx, , options = {}] = args;
+        let result;
+        const shown = tables.filter(({ object }) => object.visible && isShown(object));
+        try {
+            const dags = shown.map(({ table }) =>
+                buildDag({
+                    ...table,
+                    // spheres of never simplified roots come with the base split: unused here
+                    clusters: table.clusters.map((c) => (c.sphere === null ? { ...c, sphere: [0, 0, 0, 0] } : c)),
+                }),
+            );
+            result = selectCut(dags, this.viewOf(camera, viewportHeightPx), {
+                tauPx,
+                roi: options.roi ?? null,
+                cull: options.cull ?? this.options.cull,
+                prefetch: true,
+                isLoaded: (di, c) => dags[di].consumer[c] < 0,
+            });
+        } catch {
+            return; // the requests come with the first update after the setup
+        }
+        const base = def.byteOffset ?? 0;
+        const ranges = [];
+        const seen = new Set();
+        for (const w of result.wanted) {
+            const { table } = shown[w.dag];
+            const g = table.clusters[w.cluster].consumer;
+            const key = `${w.dag}/${g}`;
+            if (g === undefined || seen.has(key)) continue;
+            seen.add(key);
+            const start = base + table.groups[g].chunkOffset;
+            const end = start + table.groups[g].chunkLength;
+            if (this.requested.overlap(def.buffer, start, end) < end - start) ranges.push([start, end]);
+        }
+        ranges.sort((a, b) => a[0] - b[0]);
+        const merged = [];
+        for (const [start, end] of ranges) {
+            const last = merged[merged.length - 1];
+            if (
+                last !== undefined &&
+                start - last[1] <= this.options.maxRangeGap &&
+                Math.max(end, last[1]) - last[0] <= this.options.maxRangeBytes &&
+                this.requested.overlap(def.buffer, last[1], start) === 0
+            ) {
+                last[1] = Math.max(last[1], end);
+            } else {
+                merged.push([start, end]);
+            }
+        }
+        mark('strata:target-cut-request');
+        for (const [start, end] of merged.slice(0, this.options.concurrency)) {
+            const entry = { items: [], controller: null, fetched: false, ranged: true, buffer: def.buffer, start, end };
+            this.batches.add(entry);
+            this.requested.add(def.buffer, start, end);
+            ++this.requests;
+            const bytes =
+                this.options.source?.kind === 'glb-range' && def.buffer === 0
+                    ? this.glbRange(start, end)
+                    : this.fetcher.range(
+                          LoaderUtils.resolveURL(this.parser.json.buffers[def.buffer].uri, this.parser.options.path),
+                          start,
+                          end,
+                      );
+            bytes
+                .then(
+                    (data) => {
+                        if (this.controllersMade) {
+                            this.stash(entry, data);
+                        } else {
+                            this.baseRanges.push({ ...entry, bytes: data });
+                        }
+                    },
+                    () => {}, // its chunks are requested again as they are wanted
+                )
+                .finally(() => {
+                    entry.fetched = true;
+                    this.batches.delete(entry);
+                    --this.requests;
+                    if (this.setupState === 'done') this.pump();
+                });
+        }
     }
 
     // --- selection -------------------------------------------------------------------------------
