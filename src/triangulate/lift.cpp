@@ -142,7 +142,7 @@ bool closest_site(const DistanceField* f, Vec2 q, Vec2& site) {
     return true;
 }
 
-double LabelSurface::height_t(const Point& p, std::uint32_t k) const {
+double LabelSurface::height_t(const Point& p, std::uint32_t k, double* band) const {
     const Vec2 q = to_vec(p);
     const double a = sample_field(field(k), q);
     const double b = sample_field(field(k + 1), q);
@@ -198,14 +198,29 @@ double LabelSurface::height_t(const Point& p, std::uint32_t k) const {
     const double pa = slab_rings_[0].distance(q);
     const double pb = slab_rings_[1].distance(q);
     const double rings = pa + pb > 0.0 ? pa / (pa + pb) : 0.5;
-    t = a * b < 0.0 ? t + 0.5 * (rings - a / (a - b)) : rings;
+    const double shift = a * b < 0.0 ? 0.5 * (rings - a / (a - b)) : 0.0;
+    if (band != nullptr) {
+        // The heights where the linear field (1 - t) a + t b is within its value at the fields'
+        // own height (the rings' shift) plus the tolerance; where a and b barely differ, z says
+        // little about the field: the whole slab.
+        const double slope = std::abs(a - b);
+        *band = std::abs(shift) + (slope > 1e-12 ? options_.relax.field_tolerance_px / slope : 1.0);
+    }
+    t = a * b < 0.0 ? t + shift : rings;
+    const double interpolated = t;
     t = pocket_t(q, k, t);  // a cavity that closes here is domed (caps.cpp)
+    if (band != nullptr && t != interpolated) {
+        *band = 0.0;  // a dome's height is not the fields' to relax
+    }
     return std::clamp(t, 0.05, 0.95);
 }
 
 void LabelSurface::make_steiner(VertexHandle v, std::uint32_t k) {
     v->info().steiner = std::int32_t(steiner_t_.size());
-    steiner_t_.push_back(height_t(v->point(), k));
+    double band = 0.0;
+    const double t = height_t(v->point(), k, &band);
+    steiner_t_.push_back(t);
+    steiner_band_.push_back(band);
     steiner_id_.push_back(-1);
     steiner_xy_.push_back(to_vec(v->point()));
 }

@@ -80,6 +80,7 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
     check_overlap_topology(cdt, k);
 
     steiner_t_.clear();
+    steiner_band_.clear();
     steiner_id_.clear();
     steiner_xy_.clear();
 
@@ -247,6 +248,10 @@ bool LabelSurface::emit_faces(Cdt& cdt,
                 if (steiner_id_[s] < 0) {
                     steiner_id_[s] =
                         std::int32_t(add_vertex(steiner_xy_[s], z0 + steiner_t_[s] * d));
+                    const double z = z0 + steiner_t_[s] * d;
+                    const double band = steiner_band_[s] * d;
+                    free_heights_.push_back(
+                        {std::uint32_t(steiner_id_[s]), z0, z0 + d, z - band, z + band});
                     ++surface_.steiner_points;
                 }
                 return steiner_id_[s];

@@ -16,6 +16,7 @@
 #include "contours/simplify_contours.h"
 #include "core/parallel.h"
 #include "triangulate/detail/label_surface.h"
+#include "triangulate/relax_heights.h"
 
 namespace strata {
 
@@ -54,6 +55,11 @@ LabelTriangulation LabelSurface::build() {
                 cap_region(k, r, top, bottom);
             }
         }
+    }
+    // Steiner heights unfolded, only in a surface the repair policy keeps (pipeline/repair.cpp):
+    // without mismatches, or split at the AND layer.
+    if (mismatched_slabs_.empty() || level_z_ != nullptr) {
+        relax_fold_heights(surface_.mesh, free_heights_, options_.relax);
     }
     // Drop ring vertices no triangle uses (contours of single-slice slabs).
     TriMesh& mesh = surface_.mesh;

@@ -10,6 +10,7 @@
 #include "input/slice_stack.h"
 #include "medial/medial_axis.h"
 #include "mesh/tri_mesh.h"
+#include "triangulate/relax_heights.h"
 
 namespace strata {
 
@@ -39,6 +40,8 @@ struct TriangulateOptions {
     /// Rounds of local refinement (Steiner points) that remove flat chords and split
     /// correspondence jumps before a slab is declared failed.
     unsigned refine_rounds = 12;
+    /// Steiner heights moved within their slab to unfold the surface (relax_heights.h).
+    RelaxHeightsOptions relax;
 };
 
 /// Something the triangulation could not do as the semantics ask, for one slab of one label.
@@ -108,6 +111,9 @@ struct LabelTriangulation {
 /// close visibly is extended by d/2 instead); a region alone on its slice becomes a slab of
 /// thickness d/2.
 /// Contour edges are shared exactly between the slabs and caps on both sides of a slice.
+/// Last, the Steiner points move in z inside their slab to unfold the surface
+/// (TriangulateOptions::relax, relax_fold_heights): each slab stays a graph over its planar
+/// triangulation, so the surface stays embedded and its slice-plane sections do not change.
 /// Output: vertices without duplicates, triangles outward CCW;
 /// `surface.contour_deviation_px` is that of `contours`.
 LabelTriangulation triangulate_label(const SliceContours& contours,

@@ -307,7 +307,10 @@ private:
     std::size_t best_wedge_split(const std::vector<FaceHandle>& wedge,
                                  VertexHandle v,
                                  std::uint32_t k) const;
-    double height_t(const Point& p, std::uint32_t k) const;
+    /// The height t in [0.05, 0.95] of p between slices k and k+1; `band` (if given) gets how
+    /// far from t (in t) p may move while the slices' linear field there stays within its
+    /// value at t plus options_.relax.field_tolerance_px (relax_fold_heights).
+    double height_t(const Point& p, std::uint32_t k, double* band = nullptr) const;
     VertexHandle insert_steiner(Cdt& cdt, const Point& p, std::uint32_t k);
     /// Gives vertex v a height between the slices (from the distance fields).
     void make_steiner(VertexHandle v, std::uint32_t k);
@@ -410,6 +413,7 @@ private:
     std::vector<std::vector<Ring>> rings_;
     /// Steiner points of the slab being built: height parameter t and global id (-1: unused).
     std::vector<double> steiner_t_;
+    std::vector<double> steiner_band_;  ///< height_t's band per Steiner point
     std::vector<std::int32_t> steiner_id_;
     std::vector<Vec2> steiner_xy_;
     /// The contour rings of the slab being built's two slices (height_t).
@@ -418,6 +422,8 @@ private:
     /// The closing cavities of slab `pockets_slab_` (pocket_t), found on first use.
     mutable std::int64_t pockets_slab_ = -1;
     mutable std::vector<Pocket> pockets_;
+    /// Every slab's Steiner vertices with their slab's planes (relax_fold_heights).
+    std::vector<FreeHeightVertex> free_heights_;
 
     /// Collinear overlaps of a slice k edge and a slice k+1 edge (slice, local contour, edge):
     /// every point on one edge inside the overlap must be on the other too.
