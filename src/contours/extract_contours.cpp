@@ -269,20 +269,12 @@ std::vector<Window> label_windows(const SliceStack& stack,
     return windows;
 }
 
-std::vector<std::int32_t> make_label_index(const std::vector<std::uint16_t>& labels) {
-    std::vector<std::int32_t> index(65536, -1);
-    for (std::size_t i = 0; i < labels.size(); ++i) {
-        index[labels[i]] = static_cast<std::int32_t>(i);
-    }
-    return index;
-}
-
 }  // namespace
 
 SliceContourSet trace_slice_contours(const SliceStack& stack,
                                      std::uint32_t k,
                                      const std::vector<std::uint16_t>& labels) {
-    const std::vector<std::int32_t> label_index = make_label_index(labels);
+    const std::vector<std::int32_t> label_index = index_of_labels(labels);
     const std::vector<Window> windows = label_windows(stack, k, labels, label_index);
     SliceContourSet set;
     for (std::size_t l = 0; l < labels.size(); ++l) {
@@ -362,7 +354,7 @@ std::vector<RegionLink> link_slices(const SliceStack& stack,
                                     const SliceContourSet& lower,
                                     const SliceContourSet& upper,
                                     const std::vector<std::uint16_t>& labels) {
-    const std::vector<std::int32_t> label_index = make_label_index(labels);
+    const std::vector<std::int32_t> label_index = index_of_labels(labels);
     const std::vector<Window> lower_windows = label_windows(stack, k, labels, label_index);
     const std::vector<Window> upper_windows = label_windows(stack, k + 1, labels, label_index);
     std::vector<RegionLink> links;

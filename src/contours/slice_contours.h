@@ -92,4 +92,13 @@ inline std::vector<std::uint16_t> contour_labels(const SliceContours& contours) 
     return labels;
 }
 
+/// For every 16-bit label, its index in `labels`, or -1 when absent.
+inline std::vector<std::int32_t> index_of_labels(const std::vector<std::uint16_t>& labels) {
+    std::vector<std::int32_t> index(65536, -1);
+    for (std::size_t i = 0; i < labels.size(); ++i) {
+        index[labels[i]] = static_cast<std::int32_t>(i);
+    }
+    return index;
+}
+
 }  // namespace strata

@@ -790,19 +790,6 @@ DistanceField compute_distance_field(const SliceStack& stack,
     return field_in_window(stack, set, k, label, own, window, margin);
 }
 
-namespace {
-
-/// For every 16-bit label, its index in `labels`, or -1 when absent.
-std::vector<std::int32_t> index_of_labels(const std::vector<std::uint16_t>& labels) {
-    std::vector<std::int32_t> index(65536, -1);
-    for (std::size_t i = 0; i < labels.size(); ++i) {
-        index[labels[i]] = static_cast<std::int32_t>(i);
-    }
-    return index;
-}
-
-}  // namespace
-
 LabelBoxes compute_label_boxes(const SliceStack& stack,
                                const SliceContours& contours,
                                unsigned threads) {
