@@ -38,7 +38,7 @@ import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
 import { startServer } from '../serve.mjs';
 import { chromiumMissing, launchChromium } from '../chromium.mjs';
-import { parseThrottle, throttlePage } from './link.mjs';
+import { parseThrottle, throttlePage, visitUntilDecoder } from './link.mjs';
 
 function usage(message) {
     if (message) console.error(`first-frame: ${message}`);
@@ -166,12 +166,7 @@ async function measure(url, options, label, { cache, base }) {
         if (options.throttle) await throttlePage(browser.context, page, options.throttle);
         if (cache === 'warm') {
             // the returning visitor: the page without a model, until its decoder has arrived
-            await page.goto(base);
-            await page.waitForFunction(
-                () => performance.getEntriesByType('resource').some((r) => /draco_decoder\.wasm$/.test(r.name)),
-                null,
-                { timeout: 120000 },
-            );
+            await visitUntilDecoder(page, base);
             await page.waitForTimeout(500);
         }
         await page.goto(url);
@@ -309,12 +304,7 @@ async function main() {
             const browser = await launchChromium({ viewport: options.viewport });
             try {
                 const page = await browser.context.newPage();
-                await page.goto(base);
-                await page.waitForFunction(
-                    () => performance.getEntriesByType('resource').some((r) => /draco_decoder\.wasm$/.test(r.name)),
-                    null,
-                    { timeout: 120000 },
-                );
+                await visitUntilDecoder(page, base);
             } finally {
                 await browser.close();
             }

@@ -1,6 +1,6 @@
 // The emulated network link of the benchmarks (--throttle MBIT,RTT_MS): on the loopback bytes
 // cost almost nothing, so the benchmarks slow the page's network down through the Chrome DevTools
-// protocol.
+// protocol. Also their warm-up visit (the viewer's files cached before a measured one).
 
 /// Parses `MBIT,RTT_MS` into { mbit, rtt }; null unless the rate is positive and the round trip
 /// not negative.
@@ -19,4 +19,15 @@ export async function throttlePage(context, page, { mbit, rtt }) {
         downloadThroughput: (mbit * 1e6) / 8,
         uploadThroughput: (mbit * 1e6) / 8,
     });
+}
+
+/// Opens the viewer page `base` without a model and waits until its Draco decoder has arrived:
+/// the returning visitor's cache (and the server's compressed copies) before a measured visit.
+export async function visitUntilDecoder(page, base) {
+    await page.goto(base);
+    await page.waitForFunction(
+        () => performance.getEntriesByType('resource').some((r) => /draco_decoder\.wasm$/.test(r.name)),
+        null,
+        { timeout: 120000 },
+    );
 }

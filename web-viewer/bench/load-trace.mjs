@@ -16,7 +16,7 @@
 //     draw-build ms and the setup state.
 import { startServer } from '../serve.mjs';
 import { chromiumMissing, launchChromium } from '../chromium.mjs';
-import { parseThrottle, throttlePage } from './link.mjs';
+import { parseThrottle, throttlePage, visitUntilDecoder } from './link.mjs';
 
 function usage(message) {
     if (message) console.error(`load-trace: ${message}`);
@@ -46,12 +46,7 @@ try {
     const page = await browser.context.newPage();
     await throttlePage(browser.context, page, options.throttle);
     // warm: the page without a model first, until its Draco decoder has arrived
-    await page.goto(base);
-    await page.waitForFunction(
-        () => performance.getEntriesByType('resource').some((r) => /draco_decoder\.wasm$/.test(r.name)),
-        null,
-        { timeout: 120000 },
-    );
+    await visitUntilDecoder(page, base);
     await page.waitForTimeout(500);
     await page.addInitScript(() => {
         window.strataTrace = [];
