@@ -24,6 +24,21 @@ bool inside_region(const Cdt& cdt, Vec2 q, std::uint32_t region) {
     return !(type == Cdt::EDGE && cdt.is_constrained({face, li}));
 }
 
+/// How far a paraboloid goes on past the plane where its section has area `area`, when the plane
+/// d before has area `partner_area`: H = d A / (A' - A); infinity where the areas do not shrink.
+double paraboloid_height(double d, double area, double partner_area) {
+    if (partner_area > area && area > 0.0) {
+        return d * area / (partner_area - area);
+    }
+    return std::numeric_limits<double>::infinity();
+}
+
+/// The dome's rise over a point `depth` inside its contour: H (1 - (1 - depth / Dmax)^2).
+double dome_rise(double height, double depth, double dmax) {
+    const double u = 1.0 - std::min(depth / dmax, 1.0);
+    return height * (1.0 - u * u);
+}
+
 /// Dmax: the depth of the deepest of the field's nodes in the box (lo, hi) that lies inside
 /// region `region` (of the 256 deepest nodes inside the label); 0 when none does.
 double deepest_inside(
@@ -207,10 +222,15 @@ double LabelSurface::cap_height(std::uint32_t k, std::uint32_t region, bool top)
         }
         partner_area += region_area(other, there) * (siblings > 0.0 ? area / siblings : 1.0);
     }
-    if (partner_area > area && area > 0.0) {
-        return d * area / (partner_area - area);
+    return paraboloid_height(d, area, partner_area);
+}
+
+double LabelSurface::dome_height(double height) const {
+    const double d = options_.slice_spacing_px;
+    if (!std::isfinite(height)) {
+        height = 0.5 * d;  // the areas do not shrink: half a slab on average
     }
-    return std::numeric_limits<double>::infinity();
+    return std::min(height, options_.cap_reach * d);
 }
 
 /// Region `region` of slice k ends there (no partner above when `top`, else below). The object
@@ -234,11 +254,7 @@ bool LabelSurface::dome_cap(Cdt& cdt,
     if (level_z_ != nullptr || options_.cap_reach <= 0.0 || f == nullptr) {
         return false;
     }
-    double height = cap_height(k, region, top);
-    if (!std::isfinite(height)) {
-        height = 0.5 * d;  // the areas do not shrink: half a slab on average
-    }
-    height = std::min(height, options_.cap_reach * d);
+    const double height = dome_height(cap_height(k, region, top));
 
     // Dmax: the deepest field node inside this region.
     double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
@@ -265,9 +281,7 @@ bool LabelSurface::dome_cap(Cdt& cdt,
         return false;
     }
     auto dome_height = [&](Vec2 q) {
-        const double depth = std::max(-sample_field(f, q), 0.0);
-        const double u = 1.0 - std::min(depth / dmax, 1.0);
-        return std::max(height * (1.0 - u * u), lowest);
+        return std::max(dome_rise(height, std::max(-sample_field(f, q), 0.0), dmax), lowest);
     };
     std::vector<Vec2> points;
     for (double y = std::floor(y0 / step) * step + 0.5 * step; y < y1; y += step) {
@@ -450,11 +464,7 @@ std::vector<LabelSurface::Pocket> LabelSurface::find_pockets(std::uint32_t k) co
                     partner_area += far * (siblings > 0.0 ? area / siblings : 1.0);
                 }
             }
-            double height = 0.5 * d;
-            if (partner_area > area && area > 0.0) {
-                height = d * area / (partner_area - area);
-            }
-            pocket.height = std::min(height, options_.cap_reach * d) / d;
+            pocket.height = dome_height(paraboloid_height(d, area, partner_area)) / d;
             pockets.push_back(std::move(pocket));
         }
     }
@@ -471,9 +481,8 @@ double LabelSurface::pocket_t(Vec2 q, std::uint32_t k, double t) const {
             !inside_ring(pocket.ring, q)) {
             continue;
         }
-        const double depth = std::max(sample_field(pocket.field, q), 0.0);
-        const double u = 1.0 - std::min(depth / pocket.dmax, 1.0);
-        const double dome = pocket.height * (1.0 - u * u);
+        const double dome =
+            dome_rise(pocket.height, std::max(sample_field(pocket.field, q), 0.0), pocket.dmax);
         return pocket.upper ? std::min(t, 1.0 - dome) : std::max(t, dome);
     }
     return t;

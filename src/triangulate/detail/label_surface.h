@@ -326,6 +326,9 @@ private:
     /// Signed area (px^2) of region `region` of `slice`: its outer contours less its holes.
     double region_area(std::uint32_t slice, std::uint32_t region) const;
     double cap_height(std::uint32_t k, std::uint32_t region, bool top) const;
+    /// A dome's height (px) from its paraboloid's (cap_height; infinity: half a slab), at most
+    /// options.cap_reach d: for end caps and for cavities that close (find_pockets).
+    double dome_height(double height) const;
     /// A cavity (background component inside the label, bounded by one hole contour) that
     /// closes inside a slab: the hole of slice k with no background partner on slice k+1
     /// (`upper` false), or the hole of slice k+1 with none on slice k.
