@@ -40,6 +40,9 @@ constexpr double kPieceFitPx = 0.01;
 constexpr double kShortestPiecePx = 1.0 / 16.0;
 /// No triangle (yet).
 constexpr std::uint32_t kNoTriangle = 0xffffffffu;
+/// Simplifications of a first-level group that lock the vertices left too far (MultiresOptions::
+/// first_level_px) before its result is taken as it is.
+constexpr int kFirstLevelRounds = 4;
 
 using detail::TriangleHash;
 
@@ -206,8 +209,11 @@ public:
         }
     }
 
-    /// Whether `p` is the position of a vertex of the triangles.
-    bool is_vertex(const Vec3& p) const { return vertex_at_.contains(p); }
+    /// The vertex of the triangles at `p`, kNoTriangle when none is.
+    std::uint32_t vertex_at(const Vec3& p) const {
+        const auto it = vertex_at_.find(p);
+        return it == vertex_at_.end() ? kNoTriangle : it->second;
+    }
 
     std::array<Vec3, 3> corners(std::uint32_t t) const {
         const Tri& ids = triangles_[t];
@@ -434,9 +440,11 @@ private:
         std::sort(attached.begin(), attached.end());
         // which piece ends are full-resolution vertices, and their distance at level 0
         piece_vertex_ends_.assign(pieces_.size(), 0);
+        piece_vertices_.assign(pieces_.size(), {kNoTriangle, kNoTriangle});
         for (std::size_t i = 0; i < pieces_.size(); ++i) {
-            piece_vertex_ends_[i] = char((finder.is_vertex(pieces_[i].a) ? 1 : 0) |
-                                         (finder.is_vertex(pieces_[i].b) ? 2 : 0));
+            piece_vertices_[i] = {finder.vertex_at(pieces_[i].a), finder.vertex_at(pieces_[i].b)};
+            piece_vertex_ends_[i] = char((piece_vertices_[i][0] != kNoTriangle ? 1 : 0) |
+                                         (piece_vertices_[i][1] != kNoTriangle ? 2 : 0));
         }
         for (const auto& [t, piece] : attached) {
             fine_floor_px_ =
@@ -750,14 +758,49 @@ private:
         collapse.max_error_px = std::min(
             options_.max_error_px,
             std::max(options_.error_growth * attempt.children_error, attempt.children_error + 0.5));
-        if (std::all_of(members.begin(), members.end(),
-                        [&](std::uint32_t c) { return mesh_.clusters[c].level == 0; })) {
-            collapse.max_error_px =
-                std::min(collapse.max_error_px, attempt.children_error + options_.first_level_px);
+        const bool first_level = std::isfinite(options_.first_level_px) &&
+                                 std::all_of(members.begin(), members.end(), [&](std::uint32_t c) {
+                                     return mesh_.clusters[c].level == 0;
+                                 });
+        // The first level stays within first_level_px of every full-resolution vertex: the
+        // vertices the result leaves farther away are kept (locked) and the group simplified
+        // again, a few rounds (what is still farther is recorded in fine_error_px all the same).
+        // A group that cannot shrink so is simplified by the rule above alone.
+        const std::vector<std::uint32_t> border = problem.locked;
+        for (int round = 0;; ++round) {
+            attempt.result = collapse_edges(problem, meter_, collapse);
+            if (!first_level || round == kFirstLevelRounds) {
+                break;
+            }
+            const std::size_t locked = problem.locked.size();
+            for (const auto& [t, piece] : attempt.result.piece_triangles) {
+                const Tri& ids = attempt.result.triangles[t];
+                const std::array<Vec3, 3> corners{mesh_.positions[ids[0]], mesh_.positions[ids[1]],
+                                                  mesh_.positions[ids[2]]};
+                for (int end = 0; end < 2; ++end) {
+                    const std::uint32_t v = piece_vertices_[piece][std::size_t(end)];
+                    if (v != kNoTriangle &&
+                        point_triangle_distance_px(mesh_.positions[v], corners) >
+                            options_.first_level_px) {
+                        problem.locked.push_back(v);
+                    }
+                }
+            }
+            if (problem.locked.size() == locked) {
+                break;
+            }
+            std::sort(problem.locked.begin(), problem.locked.end());
+            problem.locked.erase(std::unique(problem.locked.begin(), problem.locked.end()),
+                                 problem.locked.end());
         }
-        attempt.result = collapse_edges(problem, meter_, collapse);
         attempt.shrunk = double(attempt.result.triangles.size()) <=
                          double(before) * (1.0 - options_.min_reduction);
+        if (first_level && !attempt.shrunk && problem.locked.size() > border.size()) {
+            problem.locked = border;
+            attempt.result = collapse_edges(problem, meter_, collapse);
+            attempt.shrunk = double(attempt.result.triangles.size()) <=
+                             double(before) * (1.0 - options_.min_reduction);
+        }
         if (attempt.shrunk) {
             std::vector<Tri> input = problem.triangles;
             std::sort(input.begin(), input.end());
@@ -873,6 +916,8 @@ private:
     std::vector<ContourPiece> pieces_;  ///< the label's contour pieces (attach_pieces)
     /// Per piece: bit 1 when its end a is a full-resolution vertex, bit 2 when b is.
     std::vector<char> piece_vertex_ends_;
+    /// Per piece: the full-resolution vertices at its ends a and b (kNoTriangle: not a vertex).
+    std::vector<std::array<std::uint32_t, 2>> piece_vertices_;
     /// Largest distance of a full-resolution vertex that ends a piece from the level-0 triangle
     /// the piece is attached to: a floor of every group's fine_error_px.
     double fine_floor_px_ = 0.0;

@@ -114,9 +114,10 @@ struct MultiresOptions {
     /// Collapses above this bound (px) are never made. The coarsest level is reached when no
     /// group can shrink by `min_reduction`.
     double max_error_px = std::numeric_limits<double>::infinity();
-    /// The first level's bound over level 0: a group of level 0 clusters stops at their error +
-    /// this (px; infinity: the rule above only). For measuring an extra level near full
-    /// resolution (tests/bench/progressive_size --first-level-px); strata does not set it.
+    /// The first level's bound against full resolution (px; infinity: the rule above only): a
+    /// group of level 0 clusters keeps every full-resolution vertex its result would leave
+    /// farther than this from its triangles (a few rounds), unless it then cannot shrink. A
+    /// viewer that refines on the bound against full resolution can then stop short of level 0.
     double first_level_px = std::numeric_limits<double>::infinity();
     double min_reduction = 0.15;  ///< least fraction of triangles a group must lose
     std::uint32_t max_levels = 24;

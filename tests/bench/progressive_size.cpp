@@ -10,8 +10,8 @@
 // an object, as in `strata build`.
 //
 // For each --case: `reconstruct` (default options, or --cluster-triangles / --keep-fraction /
-// --root-triangles / --first-level-px: the first level at most E px above level 0, an extra level
-// near full resolution) and,
+// --root-triangles / --first-level-px: the first level within E px of every full-resolution
+// vertex where its groups can still shrink, MultiresOptions::first_level_px) and,
 // like `strata build`, write_progressive_gltf of every object on a grid into WORK/model.glb. Its
 // bytes (ProgressiveStats): total (the .glb: a full download, i.e. full resolution); base (GLB
 // header, JSON, DAG tables and base meshes: what a first frame needs) and its share; the JSON per

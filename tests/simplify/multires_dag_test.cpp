@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <set>
 #include <string>
@@ -263,6 +264,40 @@ TEST(MultiresDag, FineBoundsAreMonotoneAndLeaveOutTheFullResolutionBound) {
                   cut.fine_error_px + 1e-9)
             << "level " << level;
     }
+}
+
+TEST(MultiresDag, FirstLevelBoundKeepsVerticesNearFullResolution) {
+    // first_level_px: the first level's groups keep the vertices their result would leave
+    // farther than it from full resolution, unless they then cannot shrink. So more first-level
+    // groups lie within it than without the option, and every cut still lies within its bound
+    // of every full-resolution vertex (measured point by point).
+    const Built b = build("torus");
+    const Reconstruction& r = b.reconstruction;
+    const SliceErrorMeter meter(r.contours, r.fields, r.surfaces[0].label, r.slice_spacing_px);
+    const double bound = 0.3;
+    std::vector<std::size_t> within;
+    for (const double first : {std::numeric_limits<double>::infinity(), bound}) {
+        MultiresOptions options;
+        options.cluster_triangles = 256;
+        options.first_level_px = first;
+        const MultiresMesh m = build_multires_mesh(r.surfaces[0].mesh, meter, 0.5, options);
+        std::size_t n = 0, level_one = 0;
+        for (const MultiresGroup& g : m.groups) {
+            level_one += g.level == 1 ? 1 : 0;
+            n += g.level == 1 && g.fine_error_px <= bound ? 1 : 0;
+        }
+        std::cout << "first_level_px " << first << ": " << n << " of " << level_one
+                  << " first-level groups within " << bound << " px, " << m.groups.size()
+                  << " groups\n";
+        within.push_back(n);
+        for (std::uint32_t level = 0; level < level_count(m); ++level) {
+            const MultiresCut cut = select_cut_at_level(m, level);
+            EXPECT_LE(test::max_point_distance_px(r.surfaces[0].mesh.positions, cut_mesh(m, cut)),
+                      cut.fine_error_px + 1e-9)
+                << "level " << level;
+        }
+    }
+    EXPECT_GT(within[1], within[0]);
 }
 
 TEST(MultiresDag, IdenticalForAnyThreadCount) {
