@@ -95,6 +95,10 @@ const kDefaults = {
     // main-thread time per task for attaching decoded chunks (at least one chunk): tasks of their
     // own, as chunks arrive, not one slice per frame (which tied loading to the frame rate)
     attachMs: 8,
+    // main-thread time per task of the setup (at least one object): the objects' controllers are
+    // made in tasks of their own, so that frames and arriving responses are not held up for the
+    // whole setup (one task of 100-210 ms on the torso and TotalSegmentator)
+    setupSliceMs: 16,
     memoryBudget: 4e6, // triangles of loaded chunks kept; beyond it, chunks off the cut are unloaded
     // merge chunk ranges of one buffer closer than this into one request: 4 kB, less than an
     // average chunk, so that merging saves requests without fetching many chunks the view does
@@ -111,6 +115,11 @@ const kDefaults = {
 };
 
 /// A User Timing mark (for benchmarks: web-viewer/bench/first-frame.mjs reads them).
+/// Resolves in a task of its own (after what the event loop has queued: frames, responses).
+function nextTask() {
+    return new Promise((resolve) => setTimeout(resolve, 0));
+}
+
 function mark(name) {
     globalThis.performance?.mark?.(name);
 }
@@ -1130,8 +1139,8 @@ export class StrataProgressivePlugin {
         if (this.setupState === 'waiting') {
             this.setupState = 'running';
             // the DAG tables and the requests of this view's target cut at once (after this
-            // update's frame is drawn, in its task), the heavy setup in a task of its own: the
-            // network overlaps the setup
+            // update's frame is drawn, in its task), the heavy setup in tasks of its own (about
+            // setupSliceMs each): the network overlaps the setup
             const early = this.readTables(this.setupResult).then((tables) => {
                 try {
                     this.requestTargetCut(tables);
@@ -1141,10 +1150,11 @@ export class StrataProgressivePlugin {
                 return tables;
             });
             setTimeout(() =>
-                this.setup(this.setupResult, early).finally(() => {
+                this.setup(this.setupResult, early).finally(async () => {
                     this.setupState = 'done';
                     this.setupResult = null;
                     this.resolveReady();
+                    await nextTask(); // the update below in a task of its own as well
                     if (this.lastArgs && this.controllers.length > 0) {
                         try {
                             this.update(...this.lastArgs);
@@ -1167,7 +1177,12 @@ export class StrataProgressivePlugin {
         const setupStart = performance.now();
         const json = this.parser.json;
         const tables = await (early ?? this.readTables(result));
+        let sliceStart = performance.now();
         for (const { nodeIndex, node, object, table } of tables) {
+            if (performance.now() - sliceStart > this.options.setupSliceMs) {
+                await nextTask();
+                sliceStart = performance.now();
+            }
             try {
                 let base = null;
                 object.traverse((o) => {

@@ -9,7 +9,7 @@
 //     WebGL calls included), the 25 largest;
 //   * the User Timing marks (ms from the navigation) and the viewer's timing;
 //   * every model request: start-end ms and bytes (Resource Timing), i.e. the request waterfall;
-//   * the frames drawn (ms), the plugin's stats (decode wait, attach, normals, draw build, setup);
+//   * the frames drawn (ms), the main thread's long tasks (over 50 ms), the plugin's stats (decode wait, attach, normals, draw build, setup);
 //   * a timeline, polled every few ms, of the plugin's state whenever it changes: requests done,
 //     requests in flight, chunks fetched or decoding, decoded chunks waiting for their attach,
 //     wanted chunks not yet requested, chunks attached, then the cumulated attach, normals and
@@ -50,6 +50,10 @@ try {
     await page.waitForTimeout(500);
     await page.addInitScript(() => {
         window.strataTrace = [];
+        window.strataLongTasks = [];
+        new PerformanceObserver((list) => {
+            for (const e of list.getEntries()) window.strataLongTasks.push([e.startTime, e.duration].map(Math.round));
+        }).observe({ type: 'longtask', buffered: true });
         let last = '';
         const poll = () => {
             const s = window.strataViewer?.strata;
@@ -96,6 +100,7 @@ try {
             renders: v.renderStamps.map(Math.round),
             stats: v.strata.stats,
             trace: window.strataTrace,
+            longTasks: window.strataLongTasks,
         };
     });
     const self = new Map();
@@ -113,6 +118,9 @@ try {
     console.log(`viewer timing: ${JSON.stringify(out.timing)}`);
     console.log(`model requests (${out.requests.length}), start-end ms and bytes: ${out.requests.join(' | ')}`);
     console.log(`frames drawn at ms: ${out.renders.join(' ')}`);
+    console.log(
+        `long tasks (> 50 ms; drawn frames are tasks too), start+duration ms: ${out.longTasks.map(([t, d]) => `${t}+${d}`).join(' ')}`,
+    );
     console.log(`plugin stats: ${JSON.stringify(out.stats)}`);
     console.log(
         'timeline: ms, requests done, in flight, chunks fetched or decoding, waiting for attach, wanted not requested, attached, attach ms, normals ms, draw build ms, setup',
