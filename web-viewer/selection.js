@@ -8,7 +8,7 @@
 // Groups are listed children first, so a parent always has a larger index than its children.
 //
 // Main entry points:
-//   buildDag(ext, { clusterTriangles })   indexes one extension object
+//   buildDag(ext, { clusterTriangles, refineOn })   indexes one extension object
 //   closeUpward / restrictToLoaded        the two passes of schema/README.md for any predicate
 //   drawnClusters(dag, refined)           the stateless draw rule
 //   screenSpaceError(error, sphere, view) the 3D Tiles formula (infinite inside the sphere)
@@ -110,8 +110,15 @@ export function clusterTriangleCounts(ext, json) {
 }
 
 /// Indexes an extension object for selection. clusterTriangles: per cluster triangle count
-/// (clusterTriangleCounts), default 0 each (then budgets count nothing).
-export function buildDag(ext, { clusterTriangles } = {}) {
+/// (clusterTriangleCounts), default 0 each (then budgets count nothing). refineOn: what selection
+/// projects against tau (dag.fine), 'finest' (default): each group's bound against the finest
+/// level, what the rest of the refinement can still change on screen; 'data': how much its slice
+/// bound exceeds the full-resolution surface's own (error - fullResolutionError), what the rest
+/// of the refinement can still gain in the bound against the original contours.
+export function buildDag(ext, { clusterTriangles, refineOn = 'finest' } = {}) {
+    if (refineOn !== 'finest' && refineOn !== 'data') {
+        throw new Error(`refineOn ${refineOn}, expected 'finest' or 'data'`);
+    }
     const problems = validateExtension(ext);
     if (problems.length > 0) {
         throw new Error(`invalid ${kExtension}: ${problems.slice(0, 3).join('; ')}`);
@@ -129,8 +136,10 @@ export function buildDag(ext, { clusterTriangles } = {}) {
     const triangles = Float64Array.from(clusterTriangles ?? new Array(nc).fill(0));
     const error = Float64Array.from(groups, (g) => g.error);
     // what selection projects: the bound against the finest level (what the rest of the
-    // refinement can still change), the slice bound where a DAG has none
-    const fine = Float64Array.from(groups, (g) => g.fineError ?? g.error);
+    // refinement can still change), the slice bound where a DAG has none; or the slice bound's
+    // excess over full resolution's (monotone along the DAG as the slice bound is)
+    const full = ext.fullResolutionError ?? 0;
+    const fine = Float64Array.from(groups, (g) => (refineOn === 'data' ? g.error - full : (g.fineError ?? g.error)));
     const sphere = new Float64Array(4 * ng);
     groups.forEach((g, i) => sphere.set(g.sphere, 4 * i));
     const clusterSphere = new Float64Array(4 * nc);

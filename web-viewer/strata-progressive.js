@@ -85,6 +85,9 @@ const kDefaults = {
     morphK: 2, // w = clamp((k - sse / tau) / (k - 1), 0, 1)
     blendMs: 300, // time blend of a refinement or coarsening the threshold did not announce
     cull: true, // refine only groups whose sphere meets the view frustum
+    // what tau bounds (selection.js buildDag): 'finest', each group's bound against full resolution;
+    // 'data', how much its bound against the slices exceeds full resolution's
+    refineOn: 'finest',
     normals: true, // shading normals over the drawn cut (false: the base's normals, chunks flat)
     // main-thread time per update for recomputing objects' normals (at least one object), or 40 %
     // of the time since the last update when frames are slower (a slow GPU leaves the main thread
@@ -331,6 +334,7 @@ export class StrataObjectController {
         for (let c = 0; c < nc; ++c) if (table.clusters[c].consumer === undefined) roots.push(c);
         const rootTriangles = this.splitBase(base, roots);
         this.dag = buildDag(table, {
+            refineOn: plugin.options.refineOn,
             clusterTriangles: table.clusters.map((_, c) => rootTriangles.get(c) ?? 0),
         });
         this.groupState = new Uint8Array(this.dag.ng); // 0 not loaded, 1 requested, 2 loaded, 3 failed
@@ -1252,11 +1256,14 @@ export class StrataProgressivePlugin {
         const shown = tables.filter(({ object }) => object.visible && isShown(object));
         try {
             const dags = shown.map(({ table }) =>
-                buildDag({
-                    ...table,
-                    // spheres of never simplified roots come with the base split: unused here
-                    clusters: table.clusters.map((c) => (c.sphere === null ? { ...c, sphere: [0, 0, 0, 0] } : c)),
-                }),
+                buildDag(
+                    {
+                        ...table,
+                        // spheres of never simplified roots come with the base split: unused here
+                        clusters: table.clusters.map((c) => (c.sphere === null ? { ...c, sphere: [0, 0, 0, 0] } : c)),
+                    },
+                    { refineOn: this.options.refineOn },
+                ),
             );
             result = selectCut(dags, this.viewOf(camera, viewportHeightPx), {
                 tauPx,

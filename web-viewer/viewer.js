@@ -177,12 +177,14 @@ async function openUrl(url) {
           ? Number(params.get('prefix'))
           : undefined;
     // plugin options from the URL (for tests and benchmarks): ?memory=TRIANGLES, ?gap=BYTES
-    // (maxRangeGap), ?normals-full=SHARE (normalsFullShare), ?prefetch=0 (no prefetching)
+    // (maxRangeGap), ?normals-full=SHARE (normalsFullShare), ?prefetch=0 (no prefetching),
+    // ?refine=data (refineOn: tau bounds the gain in the bound against the slices)
     const pluginOptions = {};
     if (params.has('memory')) pluginOptions.memoryBudget = Number(params.get('memory'));
     if (params.has('gap')) pluginOptions.maxRangeGap = Number(params.get('gap'));
     if (params.has('normals-full')) pluginOptions.normalsFullShare = Number(params.get('normals-full'));
     if (params.has('prefetch')) pluginOptions.prefetch = params.get('prefetch') !== '0';
+    if (params.has('refine')) pluginOptions.refineOn = params.get('refine');
     const result = await loadStrataModel(url, { createLoader, pluginOptions, prefixBytes });
     show(result, url.split('/').pop());
     await result.userData.strata?.ready;
@@ -470,7 +472,7 @@ function updateHud(now) {
         );
         const px = last?.maxErrorPx ?? 0;
         lines.push(
-            `max error  ${Number.isFinite(px) ? px.toFixed(2) : 'inf'} px to full resolution, ${((last?.maxError ?? 0) * 1000).toFixed(2)} mm to the slices`,
+            `max error  ${Number.isFinite(px) ? px.toFixed(2) : 'inf'} px ${strata.options.refineOn === 'data' ? 'above full resolution to the slices' : 'to full resolution'}, ${((last?.maxError ?? 0) * 1000).toFixed(2)} mm to the slices`,
         );
         if (roi) lines.push(`region     ${formatCount(last?.roiTriangles ?? 0)} triangles, tau / ${roi.factor}`);
     } else if (gltf) {

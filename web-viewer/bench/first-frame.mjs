@@ -5,6 +5,7 @@
 //
 //   node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N]
 //        [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX] [--no-compress]
+//        [--refine finest|data]
 //
 // OUT: a folder written by `strata build` (OUT/model.glb, the progressive model, and OUT/scene.glb,
 // the full-resolution plain glTF). --gltf: a folder written with `--model-format gltf` from the
@@ -14,7 +15,8 @@
 // The single-rate file is loaded as a single-rate viewer loads it: one request for the whole file,
 // sent from the page's first script as the progressive model's first range is (index.html ?whole).
 // Each variant runs in a fresh browser profile, on the same viewport and camera (the viewer's
-// fitted anterior view), the viewer's default tau (--tau PX), the default triangle budget, in two cache states
+// fitted anterior view), the viewer's default tau (--tau PX) bounding the plugin's default measure (--refine:
+// its refineOn, selection.js buildDag), the default triangle budget, in two cache states
 // (--cache, default both):
 //   cold          nothing cached: the page, three.js (as npm ships it, unminified, sent
 //                 brotli-compressed by serve.mjs as a web server does; --no-compress: as they
@@ -43,7 +45,7 @@ import { parseThrottle, throttlePage, visitUntilDecoder } from './link.mjs';
 function usage(message) {
     if (message) console.error(`first-frame: ${message}`);
     console.error(
-        'usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX] [--no-compress]',
+        'usage: node web-viewer/bench/first-frame.mjs OUT [--gltf OUT_GLTF] [--throttle MBIT,RTT_MS] [--runs N] [--viewport WxH] [--json FILE] [--no-zoom] [--cache cold|warm|both] [--tau PX] [--no-compress] [--refine finest|data]',
     );
     process.exit(2);
 }
@@ -60,6 +62,7 @@ function parseArgs(args) {
         caches: ['cold', 'warm'],
         tau: null, // the viewer's default
         compress: true, // serve.mjs compresses the viewer's files (never the models)
+        refine: null, // the plugin's default refineOn
     };
     for (let i = 0; i < args.length; ++i) {
         const arg = args[i];
@@ -81,7 +84,10 @@ function parseArgs(args) {
             options.tau = Number(args[++i]);
             if (!(options.tau > 0)) usage('--tau PX (> 0)');
         } else if (arg === '--no-compress') options.compress = false;
-        else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
+        else if (arg === '--refine') {
+            options.refine = args[++i];
+            if (!['finest', 'data'].includes(options.refine)) usage('--refine finest|data');
+        } else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
         else if (options.out === null) options.out = arg;
         else usage('one OUT folder');
     }
@@ -269,7 +275,11 @@ async function main() {
         const link = (source, name) => symlinkSync(resolve(source), join(dir, name));
         link(join(options.out, 'model.glb'), 'model.glb');
         const variants = [
-            { label: 'progressive .glb (ranges)', file: 'model.glb' },
+            {
+                label: 'progressive .glb (ranges)',
+                file: 'model.glb',
+                query: options.refine === null ? '' : `&refine=${options.refine}`,
+            },
             {
                 label: 'progressive, all refined',
                 file: 'model.glb',
@@ -343,7 +353,7 @@ async function main() {
             : 'loopback, unthrottled';
         console.log(
             `model: ${resolve(options.out)}; network: ${net}; viewport ${options.viewport.width}x${options.viewport.height}; ` +
-                `tau ${options.tau ?? "the viewer's default"} px; viewer files ${options.compress ? 'compressed (br)' : 'uncompressed'}; ` +
+                `tau ${options.tau ?? "the viewer's default"} px${options.refine ? ` on '${options.refine}'` : ''}; viewer files ${options.compress ? 'compressed (br)' : 'uncompressed'}; ` +
                 'Chromium software WebGL (SwiftShader)',
         );
         console.log(

@@ -4,14 +4,15 @@
 // the fitted first view, and compared with the same view fully refined (tau 0.000001):
 //
 //   node web-viewer/bench/tau-look.mjs MODEL.glb [--taus 1,1.5,2] [--throttle MBIT,RTT_MS]
-//        [--viewport WxH] [--out DIR]
+//        [--viewport WxH] [--out DIR] [--refine finest|data]
 //
 // Prints per tau: triangles drawn, bytes loaded (distinct, of the file), the time to settle from
 // the model's first request, the largest projected error of the cut (px), the silhouette error
 // (pixels whose coverage differs from the full-resolution picture, divided by the full-resolution
 // outline's length: the mean distance between the outlines, px) and the share of covered pixels
 // whose colour differs by more than 24/255 summed over RGB (shading). Screenshots of the page go to
-// DIR/tau-X.png (default /tmp/strata-tau-look).
+// DIR/tau-X.png (default /tmp/strata-tau-look). --refine: what tau bounds (the plugin's refineOn,
+// selection.js buildDag); the full-resolution reference is always drawn on 'finest'.
 import { mkdirSync } from 'node:fs';
 import { basename, join } from 'node:path';
 import { startServer } from '../serve.mjs';
@@ -21,13 +22,20 @@ import { parseThrottle, throttlePage } from './link.mjs';
 function usage(message) {
     if (message) console.error(`tau-look: ${message}`);
     console.error(
-        'usage: node web-viewer/bench/tau-look.mjs MODEL.glb [--taus 1,1.5,2] [--throttle MBIT,RTT_MS] [--viewport WxH] [--out DIR]',
+        'usage: node web-viewer/bench/tau-look.mjs MODEL.glb [--taus 1,1.5,2] [--throttle MBIT,RTT_MS] [--viewport WxH] [--out DIR] [--refine finest|data]',
     );
     process.exit(2);
 }
 
 const args = process.argv.slice(2);
-const options = { model: null, taus: [1, 1.5, 2], throttle: { mbit: 20, rtt: 40 }, width: 960, height: 640 };
+const options = {
+    model: null,
+    taus: [1, 1.5, 2],
+    throttle: { mbit: 20, rtt: 40 },
+    width: 960,
+    height: 640,
+    refine: null,
+};
 options.out = '/tmp/strata-tau-look';
 for (let i = 0; i < args.length; ++i) {
     const arg = args[i];
@@ -37,7 +45,10 @@ for (let i = 0; i < args.length; ++i) {
         if (!options.throttle) usage('--throttle MBIT,RTT_MS');
     } else if (arg === '--viewport') [options.width, options.height] = (args[++i] ?? '').split('x').map(Number);
     else if (arg === '--out') options.out = args[++i];
-    else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
+    else if (arg === '--refine') {
+        options.refine = args[++i];
+        if (!['finest', 'data'].includes(options.refine)) usage('--refine finest|data');
+    } else if (arg.startsWith('-')) usage(`unknown option ${arg}`);
     else if (options.model === null) options.model = arg;
     else usage('one model');
 }
@@ -49,12 +60,12 @@ mkdirSync(options.out, { recursive: true });
 
 /// Opens the model at tau, waits until it settled; returns its state, the canvas' RGBA pixels
 /// (base64) and the time to settle from the model's first request.
-async function look(server, tau) {
+async function look(server, tau, refine = null) {
     const browser = await launchChromium({ viewport: { width: options.width, height: options.height } });
     try {
         const page = await browser.context.newPage();
         await throttlePage(browser.context, page, options.throttle);
-        await page.goto(`${server.url}&tau=${tau}&preserve&aa=0`);
+        await page.goto(`${server.url}&tau=${tau}&preserve&aa=0${refine ? `&refine=${refine}` : ''}`);
         if (!(await page.evaluate(() => window.strataViewer.ready))) throw new Error(`tau ${tau}: no model`);
         await page.evaluate(() => window.strataViewer.idle(600000, 3));
         const state = await page.evaluate(() => {
@@ -119,7 +130,7 @@ try {
     );
     console.log('tau px | triangles | bytes loaded | settled ms | max error px | silhouette px | shading differs');
     for (const tau of options.taus) {
-        const { state, pixels } = await look(server, tau);
+        const { state, pixels } = await look(server, tau, options.refine);
         let xor = 0;
         let shaded = 0;
         for (let i = 0; i < n; ++i) {

@@ -116,6 +116,27 @@ test('the spec passes: upward closure, loaded restriction, draw rule', () => {
     assert.deepEqual(cutForPredicate(dag, (g) => dag.error[g] > 0.015).drawn, [2, 3, 4]);
 });
 
+test('refineOn: the bound against the finest level, or the slice bound above full resolution', () => {
+    // chain(): slice bounds 0.01, 0.02, 0.05, full resolution 0.005; with fineError (the bound
+    // against the finest level) 0.009, 0.012, 0.03 on groups 0-2
+    const ext = chain();
+    ext.groups.forEach((g, i) => (g.fineError = [0.009, 0.012, 0.03][i]));
+    const triangles = { clusterTriangles: [100, 100, 100, 100, 60, 60, 50] };
+    const finest = buildDag(ext, triangles);
+    const data = buildDag(ext, { ...triangles, refineOn: 'data' });
+    assert.deepEqual([...finest.fine], [0.009, 0.012, 0.03]);
+    assert.deepEqual([...data.fine], [0.01 - 0.005, 0.02 - 0.005, 0.05 - 0.005]);
+    assert.throws(() => buildDag(ext, { ...triangles, refineOn: 'slices' }), /refineOn/);
+    // a view where group 0's finest bound projects above tau and its excess below: g0's sphere at
+    // distance 9 (centre x = -1, radius 1, camera at x = -1, z = 10), 1000 px, fovy 90 degrees:
+    // 0.009 * 1000 / (9 * 2) = 0.5 px, (0.01 - 0.005) * 1000 / 18 = 0.28 px; tau 0.4
+    const view = { position: [-1, 0, 10], fovy: Math.PI / 2, heightPx: 1000 };
+    assert.ok(screenSpaceError(finest.fine[0], ext.groups[0].sphere, view) > 0.4);
+    assert.ok(screenSpaceError(data.fine[0], ext.groups[0].sphere, view) < 0.4);
+    assert.equal(selectCut([finest], view, { tauPx: 0.4, cull: false }).cuts[0].refined[0], 1);
+    assert.equal(selectCut([data], view, { tauPx: 0.4, cull: false }).cuts[0].refined[0], 0);
+});
+
 test('selectCut: region of interest, frustum, budget order', () => {
     const dag = buildDag(chain(), { clusterTriangles: [100, 100, 100, 100, 60, 60, 50] });
     const view = { position: [0, 0, 100], fovy: Math.PI / 3, heightPx: 1000 };
