@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstddef>
 
+#include "mesh/self_intersection.h"
 #include "triangulate/detail/label_surface.h"
 
 namespace strata::detail {
@@ -122,6 +123,10 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
         insert_rings(cdt, k, false, owners, region);
         flood_regions(cdt, k, owners);
     }
+    // At a stack end the walls lean as the object does: each ring point moves in the plane by
+    // the change of the signed distance over half a slab, taken from the slice before.
+    const std::map<std::uint32_t, Vec2> lean =
+        stack_end ? end_lean(cdt, k, region, top) : std::map<std::uint32_t, Vec2>{};
     std::map<std::uint32_t, std::array<std::uint32_t, 2>> lifted;  // ring id -> (below, above)
     auto lift = [&](std::uint32_t id) {
         auto it = lifted.find(id);
@@ -130,8 +135,13 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
             const double d = options_.slice_spacing_px;
             const double down = slab ? d / 4.0 : bottom ? d / 2.0 : 0.0;
             const double up = slab ? d / 4.0 : top ? d / 2.0 : 0.0;
-            const std::uint32_t below = down > 0.0 ? add_vertex({p.x, p.y}, p.z - down) : id;
-            const std::uint32_t above = up > 0.0 ? add_vertex({p.x, p.y}, p.z + up) : id;
+            const auto moved = lean.find(id);
+            const Vec2 q = moved != lean.end() ? moved->second : Vec2{p.x, p.y};
+            const std::uint32_t below = down > 0.0 ? add_vertex(q, p.z - down) : id;
+            const std::uint32_t above = up > 0.0 ? add_vertex(q, p.z + up) : id;
+            if (!(q == Vec2{p.x, p.y})) {
+                leans_.push_back({top ? above : below, Vec2{p.x, p.y}, q});
+            }
             it = lifted.emplace(id, std::array<std::uint32_t, 2>{below, above}).first;
         }
         return it->second;
@@ -182,6 +192,200 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
         surface_.caps += 2;
     } else {
         surface_.caps += 1;
+    }
+}
+
+/// Where the ring points of region `region` go at the end of the stack (slice k, above when
+/// `top`): a point p of the contour moves along its outward normal by
+/// (D_prev(p) - D_k(p)) / 2, the change of the signed distance over half a slab extrapolated
+/// from the previous slice (so the extension leans as the object does, up to 45 degrees); half
+/// or a quarter of that where a cap triangle would flip, and none (vertical walls, an empty map)
+/// where it still would or without a previous field.
+std::map<std::uint32_t, Vec2> LabelSurface::end_lean(const Cdt& cdt,
+                                                     std::uint32_t k,
+                                                     std::uint32_t region,
+                                                     bool top) const {
+    std::map<std::uint32_t, Vec2> offset;  // ring id -> its move at full lean
+    const double d = options_.slice_spacing_px;
+    const bool has_prev = top ? k >= 1 : k + 1 < contours_.slices.size();
+    const DistanceField* here = field(k);
+    const DistanceField* prev = has_prev ? field(top ? k - 1 : k + 1) : nullptr;
+    if (here == nullptr || prev == nullptr) {
+        return {};
+    }
+    for_each_region_ring(k, region, [&](const Ring& ring) {
+        const std::size_t n = ring.points.size();
+        for (std::size_t i = 0; i < n; ++i) {
+            const Vec2 a = to_vec(ring.points[(i + n - 1) % n]);
+            const Vec2 p = to_vec(ring.points[i]);
+            const Vec2 b = to_vec(ring.points[(i + 1) % n]);
+            // the region is on the left of the ring's direction: outward is to the right
+            const Vec2 t = (b - p) + (p - a);
+            const double length = std::sqrt(dot(t, t));
+            if (!(length > 0.0)) {
+                continue;
+            }
+            const Vec2 outward{t.y / length, -t.x / length};
+            const double shift = std::clamp(0.5 * (sample_field(prev, p) - sample_field(here, p)),
+                                            -0.5 * d, 0.5 * d);
+            offset[ring.ids[i]] = shift * outward;
+        }
+    });
+    // The full lean, else half or a quarter of it, where no cap triangle flips.
+    for (const double scale : {1.0, 0.5, 0.25}) {
+        auto at = [&](VertexHandle v) {
+            const std::int32_t id = v->info().lower;
+            const auto it = id >= 0 ? offset.find(std::uint32_t(id)) : offset.end();
+            const Vec2 p = to_vec(v->point());
+            return it != offset.end() ? p + scale * it->second : p;
+        };
+        bool flips = false;
+        for (FaceHandle f : cdt.finite_face_handles()) {
+            if (f->info().lower_region < 0) {
+                continue;
+            }
+            const Vec2 a = at(f->vertex(0));
+            const Vec2 ab = at(f->vertex(1)) - a;
+            const Vec2 ac = at(f->vertex(2)) - a;
+            if (!(ab.x * ac.y - ab.y * ac.x > 1e-9)) {
+                flips = true;
+                break;
+            }
+        }
+        if (!flips) {
+            std::map<std::uint32_t, Vec2> lean;
+            for (const auto& [id, move] : offset) {
+                const Vec3 p = surface_.mesh.positions[id];
+                lean[id] = Vec2{p.x, p.y} + scale * move;
+            }
+            return lean;
+        }
+    }
+    return {};
+}
+
+/// The leans of cap_region are checked once every cap is made. The triangles beyond the stack's
+/// end planes (walls, caps, domes, single-slice slabs) must not meet one another, and no leaned
+/// triangle may fold over 90 degrees against a neighbour that is not in a slice plane (the slab
+/// below a wall, the next wall). Each leaned vertex of such a triangle gives back half its lean,
+/// then the rest; rounds go on until nothing is found.
+void LabelSurface::settle_end_leans() {
+    if (leans_.empty()) {
+        return;
+    }
+    TriMesh& mesh = surface_.mesh;
+    const std::size_t vertices = mesh.positions.size();
+    std::vector<std::int32_t> lean_of(vertices, -1);
+    for (std::size_t i = 0; i < leans_.size(); ++i) {
+        lean_of[leans_[i].id] = std::int32_t(i);
+    }
+    const double z_low = slice_z(0);
+    const double z_high = slice_z(std::uint32_t(contours_.slices.size() - 1));
+    // Beyond the end planes: any corner outside [z_low, z_high]; touching a leaned vertex.
+    std::vector<std::uint32_t> beyond;
+    std::vector<std::uint32_t> touched;
+    for (std::uint32_t t = 0; t < mesh.triangles.size(); ++t) {
+        bool out = false;
+        bool leaned = false;
+        for (const std::uint32_t v : mesh.triangles[t]) {
+            out = out || mesh.positions[v].z < z_low || mesh.positions[v].z > z_high;
+            leaned = leaned || lean_of[v] >= 0;
+        }
+        if (out) {
+            beyond.push_back(t);
+        }
+        if (leaned) {
+            touched.push_back(t);
+        }
+    }
+    // The two faces of each edge of a leaned triangle.
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::uint32_t>> faces_of_edge;
+    auto edge = [&](std::uint32_t t, int i) {
+        const std::uint32_t a = mesh.triangles[t][std::size_t(i)];
+        const std::uint32_t b = mesh.triangles[t][std::size_t((i + 1) % 3)];
+        return std::pair{std::min(a, b), std::max(a, b)};
+    };
+    for (const std::uint32_t t : touched) {
+        for (int i = 0; i < 3; ++i) {
+            faces_of_edge[edge(t, i)];
+        }
+    }
+    for (std::uint32_t t = 0; t < mesh.triangles.size(); ++t) {
+        for (int i = 0; i < 3; ++i) {
+            const auto it = faces_of_edge.find(edge(t, i));
+            if (it != faces_of_edge.end()) {
+                it->second.push_back(t);
+            }
+        }
+    }
+    auto normal = [&](std::uint32_t t) {
+        const auto& c = mesh.triangles[t];
+        const Vec3 n = cross(mesh.positions[c[1]] - mesh.positions[c[0]],
+                             mesh.positions[c[2]] - mesh.positions[c[0]]);
+        const double length = norm(n);
+        return length > 0.0 ? (1.0 / length) * n : n;
+    };
+    auto flat = [&](std::uint32_t t) {
+        const auto& c = mesh.triangles[t];
+        return mesh.positions[c[0]].z == mesh.positions[c[1]].z &&
+               mesh.positions[c[1]].z == mesh.positions[c[2]].z;
+    };
+    std::vector<int> halvings(leans_.size(), 0);
+    for (int round = 0; round < 16; ++round) {
+        std::vector<std::uint32_t> bad;  // triangles whose leaned corners give back
+        TriMesh part;
+        part.positions = mesh.positions;
+        for (const std::uint32_t t : beyond) {
+            part.triangles.push_back(mesh.triangles[t]);
+        }
+        const SelfIntersections hits = find_self_intersections(part, 0);
+        for (const auto& [a, b] : hits.pairs) {
+            bad.push_back(beyond[a]);
+            bad.push_back(beyond[b]);
+        }
+        for (const std::uint32_t t : hits.degenerate_triangles) {
+            bad.push_back(beyond[t]);
+        }
+        for (const auto& [e, faces] : faces_of_edge) {
+            if (faces.size() != 2 || flat(faces[0]) || flat(faces[1])) {
+                continue;
+            }
+            if (dot(normal(faces[0]), normal(faces[1])) < 0.0) {
+                bad.push_back(faces[0]);
+                bad.push_back(faces[1]);
+            }
+        }
+        bool moved = false;
+        std::vector<bool> done(leans_.size(), false);
+        for (const std::uint32_t t : bad) {
+            for (const std::uint32_t v : mesh.triangles[t]) {
+                const std::int32_t i = lean_of[v];
+                if (i < 0 || done[std::size_t(i)]) {
+                    continue;
+                }
+                done[std::size_t(i)] = true;
+                Lean& lean = leans_[std::size_t(i)];
+                if (lean.leaned == lean.upright) {
+                    continue;
+                }
+                // half the lean, then none
+                lean.leaned = ++halvings[std::size_t(i)] >= 2
+                                  ? lean.upright
+                                  : lean.upright + 0.5 * (lean.leaned - lean.upright);
+                mesh.positions[v].x = lean.leaned.x;
+                mesh.positions[v].y = lean.leaned.y;
+                moved = true;
+            }
+        }
+        if (!moved) {
+            return;
+        }
+    }
+    // Still not settled: every wall upright, as without leans.
+    for (Lean& lean : leans_) {
+        lean.leaned = lean.upright;
+        mesh.positions[lean.id].x = lean.upright.x;
+        mesh.positions[lean.id].y = lean.upright.y;
     }
 }
 

@@ -56,6 +56,7 @@ LabelTriangulation LabelSurface::build() {
             }
         }
     }
+    settle_end_leans();
     // Steiner heights unfolded, only in a surface the repair policy keeps (pipeline/repair.cpp):
     // without mismatches, or split at the AND layer.
     if (mismatched_slabs_.empty() || level_z_ != nullptr) {

@@ -405,6 +405,62 @@ TEST(Surface, StackEndsExtendByHalfASlab) {
     EXPECT_NEAR(check_mesh(result.surfaces[0].mesh).signed_volume, 10.0 * 10.0 * 9.0, 1e-9);
 }
 
+// A slanted cylinder (a disc of radius 6 px that moves 2 px in x per slice, d = 4 px) leaves
+// the stack leaning: its extensions by d/2 past the end slices lean as it does, so the top
+// ring's centre is 1 px farther in x than the last slice's and the bottom ring's 1 px nearer
+// than the first's (vertical walls: 0 px).
+TEST(Surface, StackEndExtensionsLeanWithTheObject) {
+    SliceStack stack;
+    stack.width = 40;
+    stack.height = 24;
+    stack.depth = 5;
+    stack.labels.assign(std::size_t(stack.width) * stack.height * stack.depth, 0);
+    for (std::uint32_t k = 0; k < stack.depth; ++k) {
+        for (std::uint32_t j = 0; j < stack.height; ++j) {
+            for (std::uint32_t i = 0; i < stack.width; ++i) {
+                const double x = i + 0.5 - (12.0 + 2.0 * k);
+                const double y = j + 0.5 - 12.0;
+                if (x * x + y * y < 36.0) {
+                    stack.labels[(std::size_t(k) * stack.height + j) * stack.width + i] = 1;
+                }
+            }
+        }
+    }
+    stack.index_to_world.linear = {{{1.0, 0, 0}, {0, 1.0, 0}, {0, 0, 4.0}}};
+    stack.label_table.push_back({1, "slanted cylinder", {200, 80, 80}});
+    stack.source = "test";
+    Report report;
+    ReconstructOptions options;
+    options.simplify = false;
+    const Reconstruction result = reconstruct(stack, options, report);
+    ASSERT_EQ(result.surfaces.size(), 1u);
+    ASSERT_TRUE(test::independent_problem(stack, result.surfaces[0]).empty());
+    // Mean distance of the vertices at height z to the cylinder's section there: a circle of
+    // radius 6 px around (12 + z / 2, 12).
+    auto off = [&](double z_vertices, double z_circle) {
+        double sum = 0.0;
+        double n = 0.0;
+        for (const Vec3& p : result.surfaces[0].mesh.positions) {
+            if (p.z == z_vertices) {
+                sum += std::abs(norm(Vec2{p.x - (12.0 + 0.5 * z_circle), p.y - 12.0}) - 6.0);
+                n += 1.0;
+            }
+        }
+        EXPECT_GT(n, 8.0) << "z = " << z_vertices;
+        return sum / std::max(n, 1.0);
+    };
+    // Upright walls would leave the slices' rings at z = -2 and 18; leaning, they follow it.
+    const double top = off(18.0, 18.0);
+    const double bottom = off(-2.0, -2.0);
+    const double top_upright = off(16.0, 18.0);
+    const double bottom_upright = off(0.0, -2.0);
+    std::cout << "mean distance to the cylinder at z = 18: " << top << " px (upright "
+              << top_upright << "), at z = -2: " << bottom << " px (upright " << bottom_upright
+              << ")\n";
+    EXPECT_LT(top, 0.6 * top_upright);
+    EXPECT_LT(bottom, 0.6 * bottom_upright);
+}
+
 std::vector<std::string> catalogue_names() {
     std::vector<std::string> names;
     for (const std::string& name : phantom_names()) {

@@ -323,6 +323,16 @@ private:
                   std::uint32_t k,
                   std::uint32_t region,
                   bool top);
+    /// The ring points of a region that ends at the stack's end, moved where its extension by
+    /// d/2 reaches (caps.cpp); empty: vertical walls.
+    std::map<std::uint32_t, Vec2> end_lean(const Cdt& cdt,
+                                           std::uint32_t k,
+                                           std::uint32_t region,
+                                           bool top) const;
+    /// Takes back the leans of stack-end wall vertices (toward upright, at most to it) where a
+    /// leaned triangle meets another triangle beyond the end planes or folds over 90 degrees
+    /// against a neighbour (caps.cpp).
+    void settle_end_leans();
     /// Signed area (px^2) of region `region` of `slice`: its outer contours less its holes.
     double region_area(std::uint32_t slice, std::uint32_t region) const;
     double cap_height(std::uint32_t k, std::uint32_t region, bool top) const;
@@ -425,6 +435,13 @@ private:
     /// The closing cavities of slab `pockets_slab_` (pocket_t), found on first use.
     mutable std::int64_t pockets_slab_ = -1;
     mutable std::vector<Pocket> pockets_;
+    /// A stack-end wall vertex that leans (cap_region): its upright and its leaned position.
+    struct Lean {
+        std::uint32_t id = 0;
+        Vec2 upright;
+        Vec2 leaned;
+    };
+    std::vector<Lean> leans_;
     /// Every slab's Steiner vertices with their slab's planes (relax_fold_heights).
     std::vector<FreeHeightVertex> free_heights_;
 
