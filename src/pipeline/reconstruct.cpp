@@ -10,6 +10,10 @@
 #include <tuple>
 #include <utility>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include "core/parallel.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
@@ -140,9 +144,9 @@ void release_fields(std::vector<SliceDistanceFields>& fields, std::uint16_t labe
     }
 }
 
-/// Appends the medial axes of one batch of labels to those of the labels before it: curves stay
-/// sorted by label (batches go up in label order), unmatched runs are sorted again, so the
-/// result is what one pass over all labels gives.
+/// Adds the medial axes of one batch of labels to those of the batches before it: curves are
+/// merged by label (each label's in one batch, in their order), unmatched runs are sorted
+/// again, so the result is what one pass over all labels gives.
 void merge_medial_axes(std::vector<MedialAxis>& into, std::vector<MedialAxis>&& batch) {
     if (into.empty()) {
         into = std::move(batch);
@@ -150,7 +154,11 @@ void merge_medial_axes(std::vector<MedialAxis>& into, std::vector<MedialAxis>&& 
     }
     for (std::size_t k = 0; k < into.size(); ++k) {
         MedialAxis& axis = into[k];
+        const auto before = static_cast<std::ptrdiff_t>(axis.curves.size());
         std::move(batch[k].curves.begin(), batch[k].curves.end(), std::back_inserter(axis.curves));
+        std::inplace_merge(
+            axis.curves.begin(), axis.curves.begin() + before, axis.curves.end(),
+            [](const MedialCurve& a, const MedialCurve& b) { return a.label < b.label; });
         std::move(batch[k].unmatched.begin(), batch[k].unmatched.end(),
                   std::back_inserter(axis.unmatched));
         std::sort(axis.unmatched.begin(), axis.unmatched.end(),
@@ -166,7 +174,7 @@ void merge_medial_axes(std::vector<MedialAxis>& into, std::vector<MedialAxis>&& 
 struct LabelRun {
     std::vector<std::uint16_t> labels;
     std::vector<std::string> unsnapped;
-    std::vector<Warning> retried;  // the corner rebuilds' warnings, in label order
+    std::vector<std::vector<Warning>> retried;  // the corner rebuilds' warnings, per label
     std::vector<std::string> kept;
     std::size_t checked = 0;
     std::size_t simplified = 0;
@@ -175,7 +183,7 @@ struct LabelRun {
 
 /// One batch of labels and what the stages after the contours make of it.
 struct LabelBatch {
-    std::size_t first = 0;  ///< index of the batch's first label in LabelRun::labels
+    std::vector<std::size_t> index;  ///< each label's place in LabelRun::labels, increasing
     std::vector<std::uint16_t> labels;
     const LabelBoxes* boxes = nullptr;  ///< of all labels, shared by the batches
     ProgressFn progress;
@@ -197,17 +205,42 @@ ContourOptions contour_options_of(const ReconstructOptions& options) {
     return contour_options;
 }
 
-/// The labels from `first` on, at most `batch_size`, with their progress reports prefixed by
-/// the batch's range when it is not all labels.
+/// The places in `labels` by decreasing number of contour points (ties in label order): the
+/// batches take the largest labels together, so that no batch waits for one large label while
+/// the other threads have nothing left to do.
+std::vector<std::size_t> largest_first(const SliceContours& contours,
+                                       const std::vector<std::uint16_t>& labels) {
+    const std::vector<std::int32_t> index = index_of_labels(labels);
+    std::vector<std::size_t> points(labels.size(), 0);
+    for (const SliceContourSet& set : contours.slices) {
+        for (const Contour& c : set.contours) {
+            if (index[c.label] >= 0) {
+                points[std::size_t(index[c.label])] += c.points.size();
+            }
+        }
+    }
+    std::vector<std::size_t> order(labels.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return points[a] > points[b]; });
+    return order;
+}
+
+/// The labels at `order[first]` on, at most `batch_size`, in label order, with their progress
+/// reports prefixed by the batch's range when it is not all labels.
 LabelBatch start_batch(const ReconstructOptions& options,
                        const std::vector<std::uint16_t>& labels,
+                       const std::vector<std::size_t>& order,
                        std::size_t first,
                        std::size_t batch_size) {
     LabelBatch batch;
-    batch.first = first;
-    batch.labels.assign(
-        labels.begin() + static_cast<std::ptrdiff_t>(first),
-        labels.begin() + static_cast<std::ptrdiff_t>(std::min(first + batch_size, labels.size())));
+    batch.index.assign(
+        order.begin() + static_cast<std::ptrdiff_t>(first),
+        order.begin() + static_cast<std::ptrdiff_t>(std::min(first + batch_size, order.size())));
+    std::sort(batch.index.begin(), batch.index.end());
+    for (const std::size_t i : batch.index) {
+        batch.labels.push_back(labels[i]);
+    }
     std::string prefix;
     if (batch.labels.size() < labels.size()) {
         prefix = "labels " + std::to_string(first + 1) + "-" +
@@ -277,9 +310,10 @@ void rebuild_batch_at_corners(const SliceStack& stack,
     part.surfaces = std::move(batch.surfaces);
     part.repairs = std::move(batch.repairs);
     part.slice_spacing_px = result.slice_spacing_px;
-    std::vector<std::string> part_unsnapped(
-        run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first),
-        run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first + batch.labels.size()));
+    std::vector<std::string> part_unsnapped;
+    for (const std::size_t i : batch.index) {
+        part_unsnapped.push_back(run.unsnapped[i]);
+    }
     Report part_report;
     rebuild_at_corners(
         stack,
@@ -291,10 +325,14 @@ void rebuild_batch_at_corners(const SliceStack& stack,
     batch.axes = std::move(part.medial_axes);
     batch.surfaces = std::move(part.surfaces);
     batch.repairs = std::move(part.repairs);
-    std::copy(part_unsnapped.begin(), part_unsnapped.end(),
-              run.unsnapped.begin() + static_cast<std::ptrdiff_t>(batch.first));
-    std::move(part_report.warnings.begin(), part_report.warnings.end(),
-              std::back_inserter(run.retried));
+    for (std::size_t i = 0; i < batch.index.size(); ++i) {
+        run.unsnapped[batch.index[i]] = std::move(part_unsnapped[i]);
+    }
+    // note: one warning per rebuilt label, in `redo` order
+    for (std::size_t j = 0; j < part_report.warnings.size(); ++j) {
+        const std::size_t i = batch.index[redo[std::min(j, redo.size() - 1)]];
+        run.retried[i].push_back(std::move(part_report.warnings[j]));
+    }
 }
 
 /// Quantizes and/or verifies the batch's surfaces, rebuilding at pixel corners those that
@@ -309,7 +347,7 @@ void verify_batch(const SliceStack& stack,
     const std::string stage = std::string(verify_stage) + " labels";
     std::vector<ObjectSurface>& surfaces = batch.surfaces;
     parallel_for(surfaces.size(), options.threads, [&](std::size_t i) {
-        run.unsnapped[batch.first + i] = quantize_with_repairs(
+        run.unsnapped[batch.index[i]] = quantize_with_repairs(
             stack, result.slice_spacing_px, options.quantize, options.verify, surfaces[i]);
         if (options.progress) {
             const std::lock_guard<std::mutex> lock(run.progress_mutex);
@@ -319,7 +357,7 @@ void verify_batch(const SliceStack& stack,
     std::vector<std::size_t> redo;
     for (std::size_t i = 0; i < surfaces.size(); ++i) {
         if (options.quantize.enabled && contour_options.edge_midpoints &&
-            surfaces[i].grid_step == 0.0 && !run.unsnapped[batch.first + i].empty()) {
+            surfaces[i].grid_step == 0.0 && !run.unsnapped[batch.index[i]].empty()) {
             redo.push_back(i);
         }
     }
@@ -355,7 +393,7 @@ void simplify_batch(const ReconstructOptions& options,
         label_options.grid_step = surface.grid_step;
         if (surface.verification.done && !surface.verification.ok()) {
             label_options.max_levels = 0;  // note: collapses assume a closed manifold
-            run.kept[batch.first + i] = "surface failed verification; kept at full resolution only";
+            run.kept[batch.index[i]] = "surface failed verification; kept at full resolution only";
         }
         models[i] = build_multires_mesh(surface.mesh, meter,
                                         surface.contour_deviation_px + surface.grid_shift_px,
@@ -371,11 +409,20 @@ void simplify_batch(const ReconstructOptions& options,
     });
 }
 
-/// Moves the batch's results after those of the batches before it.
-void append_batch(Reconstruction& result, LabelBatch& batch) {
-    std::move(batch.surfaces.begin(), batch.surfaces.end(), std::back_inserter(result.surfaces));
-    std::move(batch.repairs.begin(), batch.repairs.end(), std::back_inserter(result.repairs));
-    std::move(batch.models.begin(), batch.models.end(), std::back_inserter(result.models));
+/// Moves the batch's results to their labels' places among all `labels` labels' results.
+void append_batch(Reconstruction& result, std::size_t labels, LabelBatch& batch) {
+    result.surfaces.resize(labels);
+    result.repairs.resize(labels);
+    for (std::size_t i = 0; i < batch.index.size(); ++i) {
+        result.surfaces[batch.index[i]] = std::move(batch.surfaces[i]);
+        result.repairs[batch.index[i]] = std::move(batch.repairs[i]);
+    }
+    if (!batch.models.empty()) {
+        result.models.resize(labels);
+        for (std::size_t i = 0; i < batch.index.size(); ++i) {
+            result.models[batch.index[i]] = std::move(batch.models[i]);
+        }
+    }
     merge_medial_axes(result.medial_axes, std::move(batch.axes));
     if (result.fields.empty()) {
         // note: one batch when the fields are kept; else they are released, only the
@@ -390,8 +437,10 @@ void report_warnings(const SliceStack& stack,
                      const Reconstruction& result,
                      LabelRun& run,
                      Report& report) {
-    for (Warning& w : run.retried) {
-        report.warn(std::move(w.stage), std::move(w.where), std::move(w.message));
+    for (std::vector<Warning>& warnings : run.retried) {
+        for (Warning& w : warnings) {
+            report.warn(std::move(w.stage), std::move(w.where), std::move(w.message));
+        }
     }
     for (std::size_t i = 0; i < run.labels.size(); ++i) {
         if (!run.unsnapped[i].empty()) {
@@ -453,11 +502,13 @@ Reconstruction reconstruct(const SliceStack& stack,
                                        : options.batch_labels;
     const char* verify_stage = options.quantize.enabled ? "quantize+verify" : "verify";
     run.unsnapped.resize(run.labels.size());
+    run.retried.resize(run.labels.size());
     run.kept.resize(run.labels.size());
     // note: one scan of the stack for the label boxes, not one per batch
     const LabelBoxes boxes = compute_label_boxes(stack, result.contours, options.threads);
+    const std::vector<std::size_t> order = largest_first(result.contours, run.labels);
     for (std::size_t first = 0; first < run.labels.size(); first += batch_size) {
-        LabelBatch batch = start_batch(options, run.labels, first, batch_size);
+        LabelBatch batch = start_batch(options, run.labels, order, first, batch_size);
         batch.boxes = &boxes;
         triangulate_batch(stack, options, result, clock, batch);
         if (options.quantize.enabled || options.verify) {
@@ -468,7 +519,13 @@ Reconstruction reconstruct(const SliceStack& stack,
             simplify_batch(options, result, run, batch);
             clock.done("simplify");
         }
-        append_batch(result, batch);
+        append_batch(result, run.labels.size(), batch);
+#if defined(__GLIBC__)
+        // note: the batch's fields and scratch were freed in the arenas of the threads that
+        // used them; return those pages, or every thread's arena keeps its own high-water mark
+        // (FreeSurfer at 2 threads: 100 MB more than at 1)
+        malloc_trim(0);
+#endif
     }
     if (result.fields.empty()) {
         result.fields.resize(stack.depth);
