@@ -26,6 +26,7 @@
 #include "core/atomic_write.h"
 #include "core/error.h"
 #include "core/file_names.h"
+#include "core/parallel.h"
 #include "exporters/detail/gltf_common.h"
 #include "mesh/shading_normals.h"
 
@@ -159,17 +160,42 @@ std::vector<Index> flat_indices(const TriMesh& mesh) {
     return out;
 }
 
-/// One object's triangles, positions and normals as a Draco (Edgebreaker) primitive: its bytes
-/// in a buffer view, accessors without views for POSITION, NORMAL and the indices (counts and
-/// bounds of the decoded mesh, which is decoded here once to read them).
-void add_draco_primitive(tinygltf::Model& model,
-                         BufferBuilder& buffer,
-                         tinygltf::Primitive& primitive,
-                         const std::filesystem::path& path,
-                         const std::vector<float>& positions,
-                         const std::vector<float>& normals,
-                         const TriMesh& mesh,
-                         const SceneGltfOptions& options) {
+/// The positions as float32, with their bounds.
+std::vector<float> float_positions(const TriMesh& mesh,
+                                   std::vector<double>& min,
+                                   std::vector<double>& max) {
+    std::vector<float> positions;
+    positions.reserve(3 * mesh.positions.size());
+    min.assign(3, std::numeric_limits<double>::infinity());
+    max.assign(3, -std::numeric_limits<double>::infinity());
+    for (const Vec3& p : mesh.positions) {
+        for (int k = 0; k < 3; ++k) {
+            const float f = to_float(p[k]);
+            positions.push_back(f);
+            min[k] = std::min(min[k], static_cast<double>(f));
+            max[k] = std::max(max[k], static_cast<double>(f));
+        }
+    }
+    return positions;
+}
+
+/// One object's triangles, positions and normals as a Draco (Edgebreaker) primitive, with the
+/// counts and position bounds of the decoded mesh (decoded here once to read them).
+struct DracoPrimitive {
+    std::vector<char> bytes;
+    std::uint32_t points = 0;
+    std::size_t faces = 0;
+    std::vector<double> min, max;
+    int position_id = 0;  ///< the attributes' unique ids in the Draco stream
+    int normal_id = 0;
+};
+
+DracoPrimitive encode_draco(const std::filesystem::path& path,
+                            const TriMesh& mesh,
+                            const SceneGltfOptions& options) {
+    std::vector<double> min, max;
+    const std::vector<float> positions = float_positions(mesh, min, max);
+    const std::vector<float> normals = float_normals(mesh);
     const auto n = static_cast<std::uint32_t>(mesh.positions.size());
     draco::Mesh dm;
     dm.set_num_points(n);
@@ -207,32 +233,47 @@ void add_draco_primitive(tinygltf::Model& model,
     const draco::Mesh& back = *decoded.value();
     const draco::PointAttribute* back_position =
         back.GetNamedAttribute(draco::GeometryAttribute::POSITION);
-    std::vector<double> min(3, std::numeric_limits<double>::infinity());
-    std::vector<double> max(3, -std::numeric_limits<double>::infinity());
+    DracoPrimitive out;
+    out.min.assign(3, std::numeric_limits<double>::infinity());
+    out.max.assign(3, -std::numeric_limits<double>::infinity());
     for (draco::PointIndex i(0); i < back.num_points(); ++i) {
         float p[3] = {};
         back_position->GetMappedValue(i, p);
         for (int k = 0; k < 3; ++k) {
-            min[k] = std::min(min[k], static_cast<double>(p[k]));
-            max[k] = std::max(max[k], static_cast<double>(p[k]));
+            out.min[k] = std::min(out.min[k], static_cast<double>(p[k]));
+            out.max[k] = std::max(out.max[k], static_cast<double>(p[k]));
         }
     }
-    const int view = buffer.add_view(encoded.data(), encoded.size(), /*target=*/0);
-    const int position_accessor = buffer.add_accessor(-1, TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                                      TINYGLTF_TYPE_VEC3, back.num_points());
-    model.accessors[position_accessor].minValues = min;
-    model.accessors[position_accessor].maxValues = max;
+    out.bytes.assign(encoded.data(), encoded.data() + encoded.size());
+    out.points = back.num_points();
+    out.faces = back.num_faces();
+    out.position_id = static_cast<int>(dm.attribute(position)->unique_id());
+    out.normal_id = static_cast<int>(dm.attribute(normal)->unique_id());
+    return out;
+}
+
+/// The Draco primitive's bytes in a buffer view, accessors without views for POSITION, NORMAL
+/// and the indices.
+void add_draco_primitive(tinygltf::Model& model,
+                         BufferBuilder& buffer,
+                         tinygltf::Primitive& primitive,
+                         const DracoPrimitive& draco) {
+    const int view = buffer.add_view(draco.bytes.data(), draco.bytes.size(), /*target=*/0);
+    const int position_accessor =
+        buffer.add_accessor(-1, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, draco.points);
+    model.accessors[position_accessor].minValues = draco.min;
+    model.accessors[position_accessor].maxValues = draco.max;
     primitive.attributes["POSITION"] = position_accessor;
-    primitive.attributes["NORMAL"] = buffer.add_accessor(-1, TINYGLTF_COMPONENT_TYPE_FLOAT,
-                                                         TINYGLTF_TYPE_VEC3, back.num_points());
-    primitive.indices = buffer.add_accessor(
-        -1,
-        back.num_points() <= kMaxShortVertices ? TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT
-                                               : TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
-        TINYGLTF_TYPE_SCALAR, 3 * std::size_t(back.num_faces()));
+    primitive.attributes["NORMAL"] =
+        buffer.add_accessor(-1, TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, draco.points);
+    primitive.indices = buffer.add_accessor(-1,
+                                            draco.points <= kMaxShortVertices
+                                                ? TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT
+                                                : TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT,
+                                            TINYGLTF_TYPE_SCALAR, 3 * draco.faces);
     tinygltf::Value::Object attributes;
-    attributes["POSITION"] = tinygltf::Value(static_cast<int>(dm.attribute(position)->unique_id()));
-    attributes["NORMAL"] = tinygltf::Value(static_cast<int>(dm.attribute(normal)->unique_id()));
+    attributes["POSITION"] = tinygltf::Value(draco.position_id);
+    attributes["NORMAL"] = tinygltf::Value(draco.normal_id);
     tinygltf::Value::Object extension;
     extension["bufferView"] = tinygltf::Value(view);
     extension["attributes"] = tinygltf::Value(std::move(attributes));
@@ -240,34 +281,23 @@ void add_draco_primitive(tinygltf::Model& model,
 }
 
 /// Adds the mesh, material and node of one object; returns the node index.
+/// `draco`: the object's Draco primitive (options.draco), else null.
 int add_object(tinygltf::Model& model,
                BufferBuilder& buffer,
                const SceneObject& object,
-               const SceneInfo& info,
-               const std::filesystem::path& path,
-               const SceneGltfOptions& options) {
+               const DracoPrimitive* draco,
+               const SceneInfo& info) {
     const TriMesh& mesh = object.mesh;
     const std::size_t n = mesh.positions.size();
 
-    std::vector<float> positions;
-    positions.reserve(3 * n);
-    std::vector<double> min(3, std::numeric_limits<double>::infinity());
-    std::vector<double> max(3, -std::numeric_limits<double>::infinity());
-    for (const Vec3& p : mesh.positions) {
-        for (int k = 0; k < 3; ++k) {
-            const float f = to_float(p[k]);
-            positions.push_back(f);
-            min[k] = std::min(min[k], static_cast<double>(f));
-            max[k] = std::max(max[k], static_cast<double>(f));
-        }
-    }
-    const std::vector<float> normals = float_normals(mesh);
-
     tinygltf::Primitive primitive;
     primitive.mode = TINYGLTF_MODE_TRIANGLES;  // note: tinygltf's default -1 would be written
-    if (options.draco) {
-        add_draco_primitive(model, buffer, primitive, path, positions, normals, mesh, options);
+    if (draco != nullptr) {
+        add_draco_primitive(model, buffer, primitive, *draco);
     } else {
+        std::vector<double> min, max;
+        const std::vector<float> positions = float_positions(mesh, min, max);
+        const std::vector<float> normals = float_normals(mesh);
         const int position_view = buffer.add_view(
             positions.data(), positions.size() * sizeof(float), TINYGLTF_TARGET_ARRAY_BUFFER);
         const int position_accessor = buffer.add_accessor(
@@ -429,11 +459,25 @@ void write_scene_gltf(const std::filesystem::path& path,
     root.matrix.assign(detail::kPatientToGltf.begin(), detail::kPatientToGltf.end());
     model.nodes.push_back(std::move(root));
 
+    // note: the objects' Draco encodings (most of the time) go over the threads, each object's
+    // alone; the buffer is laid out in object order
+    std::vector<DracoPrimitive> draco(options.draco ? objects.size() : 0);
+    if (options.draco) {
+        parallel_for(objects.size(), options.threads, [&](std::size_t i) {
+            if (!objects[i].mesh.triangles.empty()) {
+                draco[i] = encode_draco(path, objects[i].mesh, options);
+            }
+        });
+    }
     BufferBuilder buffer(model);
     std::vector<int> children;
-    for (const SceneObject& object : objects) {
-        if (!object.mesh.triangles.empty()) {
-            children.push_back(add_object(model, buffer, object, info, path, options));
+    for (std::size_t i = 0; i < objects.size(); ++i) {
+        if (!objects[i].mesh.triangles.empty()) {
+            children.push_back(
+                add_object(model, buffer, objects[i], options.draco ? &draco[i] : nullptr, info));
+            if (options.draco) {
+                draco[i] = {};
+            }
         }
     }
     model.nodes[0].children = std::move(children);

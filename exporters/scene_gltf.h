@@ -33,6 +33,9 @@ struct SceneGltfOptions {
     int position_bits = 16;  ///< Draco quantization of positions (bits over the object's extent)
     int normal_bits = 12;    ///< Draco quantization of normals (octahedral bits)
     int draco_speed = 3;     ///< Draco encoder speed, 0 (smallest) .. 10 (fastest)
+    /// Worker threads for the objects' Draco encodings (0: all cores); the file is the same for
+    /// any count.
+    unsigned threads = 1;
 };
 
 /// Writes `objects` as a plain (single-resolution) glTF 2.0 scene, binary `.glb` (one file) or

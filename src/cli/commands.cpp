@@ -18,6 +18,7 @@
 #include "core/atomic_write.h"
 #include "core/error.h"
 #include "core/file_names.h"
+#include "core/parallel.h"
 #include "core/report.h"
 #include "core/version.h"
 #include "debug/draw_contours.h"
@@ -393,24 +394,35 @@ std::vector<SceneObject> write_surface_meshes(const BuildOptions& options,
                                               const StagedOutputFolder& out,
                                               BuildSummary& summary,
                                               Report& report) {
-    std::vector<SceneObject> scene;
+    const std::size_t n = result.surfaces.size();
+    std::vector<SceneObject> scene(n);
     std::vector<std::string> stems;
-    const double mm_per_px = error_mm_per_px(stack);
-    for (std::size_t i = 0; i < result.surfaces.size(); ++i) {
-        const ObjectSurface& surface = result.surfaces[i];
-        SceneObject object = scene_object(stack, surface.label);
-        object.mesh = surface_to_world(stack, result.slice_spacing_px, surface.mesh);
-        const MeshReport check = check_mesh(object.mesh);
-        const std::string stem = unique_stem(file_stem(object.name), surface.label, stems);
-        stems.push_back(stem);
-        const std::filesystem::path mesh_file =
-            options.output_dir / "meshes" / (stem + "." + options.mesh_format);
+    std::vector<std::filesystem::path> mesh_files;
+    for (std::size_t i = 0; i < n; ++i) {
+        scene[i] = scene_object(stack, result.surfaces[i].label);
+        stems.push_back(unique_stem(file_stem(scene[i].name), scene[i].label, stems));
+        mesh_files.push_back(options.output_dir / "meshes" /
+                             (stems.back() + "." + options.mesh_format));
+    }
+    // note: each object's world mesh, checks, normals and file depend on it alone: the objects
+    // go over the threads, the summaries and warnings follow in object order
+    std::vector<MeshReport> checks(n);
+    parallel_for(n, options.threads, [&](std::size_t i) {
+        SceneObject& object = scene[i];
+        object.mesh = surface_to_world(stack, result.slice_spacing_px, result.surfaces[i].mesh);
+        checks[i] = check_mesh(object.mesh);
         if (!object.mesh.triangles.empty()) {
             write_mesh(
-                object.mesh, out.staged(mesh_file),
+                object.mesh, out.staged(mesh_files[i]),
                 options.mesh_format == "stl" ? std::vector<Vec3>{} : shading_normals(object.mesh));
         }
-        SurfaceSummary s = summarize_surface(surface, result.repairs[i], check, mesh_file);
+    });
+    const double mm_per_px = error_mm_per_px(stack);
+    for (std::size_t i = 0; i < n; ++i) {
+        const ObjectSurface& surface = result.surfaces[i];
+        const SceneObject& object = scene[i];
+        const MeshReport& check = checks[i];
+        SurfaceSummary s = summarize_surface(surface, result.repairs[i], check, mesh_files[i]);
         if (i < result.models.size()) {
             s.levels = summarize_levels(result.models[i], mm_per_px);
             s.groups = result.models[i].groups.size();
@@ -420,7 +432,6 @@ std::vector<SceneObject> write_surface_meshes(const BuildOptions& options,
                         "the surface is not a closed manifold: " + check.problems.front());
         }
         summary.surfaces.push_back(std::move(s));
-        scene.push_back(std::move(object));
     }
     return scene;
 }
@@ -509,6 +520,7 @@ int run_build(const BuildOptions& options) {
         } else {
             SceneGltfOptions scene_options;
             scene_options.draco = !options.scene_uncompressed;
+            scene_options.threads = options.threads;
             write_scene_gltf(out.staged(scene_file), scene, info, scene_options);
         }
         summary.scene = scene_file;

@@ -628,6 +628,25 @@ TEST(SceneGltf, DracoPrimitivesDecodeToTheTrianglesAndShadingNormals) {
     }
 }
 
+TEST(SceneGltf, DracoFileIsTheSameForAnyThreadCount) {
+    // the objects are encoded on several threads, their primitives laid out in object order
+    std::vector<SceneObject> objects = two_objects();
+    objects.insert(objects.begin() + 1, SceneObject{});  // an empty one between, skipped
+    objects[1].name = "empty";
+    objects.push_back(two_objects()[0]);
+    const fs::path dir = test::fresh_temp_dir("scene_gltf_draco_threads");
+    SceneGltfOptions options;
+    options.draco = true;
+    write_scene_gltf(dir / "serial.glb", objects, sample_info(), options);
+    const std::string serial = read_bytes(dir / "serial.glb");
+    for (const unsigned threads : {2u, 3u}) {
+        options.threads = threads;
+        const fs::path path = dir / ("threads" + std::to_string(threads) + ".glb");
+        write_scene_gltf(path, objects, sample_info(), options);
+        EXPECT_EQ(read_bytes(path), serial) << threads << " threads";
+    }
+}
+
 /// Files for the Khronos validator (tests/node/validate_gltf.mjs, CTest gltf_validator_scene):
 /// written to $STRATA_GLTF_SAMPLE_DIR when set, else to a temp folder and only read back.
 TEST(SceneGltfSamples, WritesValidatorSamples) {
