@@ -517,6 +517,9 @@ bool LabelSurface::dome_cap(Cdt& cdt,
         flood_regions(cdt, k, owners);
         const std::vector<Point> chords = plane_chords(cdt, region);
         if (chords.empty()) {
+            unbias_dome(cdt, region, z, sign, height, [&](Vec2 q) {
+                return std::max(dome_rise(height, std::max(-sample_field(f, q), 0.0), dmax), 0.0);
+            });
             return true;
         }
         for (const Point& p : chords) {
@@ -524,6 +527,69 @@ bool LabelSurface::dome_cap(Cdt& cdt,
         }
     }
     return false;
+}
+
+/// Flat triangles under a dome that curves down to its rim lie inside it: each triangle of the
+/// region is short by the mean of the dome over it less the mean of its corners' heights, e.
+/// Each dome vertex rises by its share of that shortfall (e times the triangle's area, split
+/// between its dome corners, over a third of its triangles' area), so that the triangles
+/// enclose what the dome does; heights stay in [d/16, H], H the dome's top (`height`).
+template <class Dome>
+void LabelSurface::unbias_dome(
+    const Cdt& cdt, std::uint32_t region, double z, double sign, double height, const Dome& dome) {
+    TriMesh& mesh = surface_.mesh;
+    std::map<std::int32_t, std::array<double, 2>> share;  // dome vertex -> (volume, area / 3)
+    for (FaceHandle f : cdt.finite_face_handles()) {
+        if (f->info().lower_region != std::int32_t(region)) {
+            continue;
+        }
+        std::array<Vec2, 3> xy;
+        std::array<double, 3> h{};
+        int domed = 0;
+        for (int i = 0; i < 3; ++i) {
+            const VertexInfo& info = f->vertex(i)->info();
+            xy[std::size_t(i)] = to_vec(f->vertex(i)->point());
+            if (info.lower < 0 && info.steiner >= 0) {
+                h[std::size_t(i)] = sign * (mesh.positions[std::size_t(info.steiner)].z - z);
+                ++domed;
+            }
+        }
+        if (domed == 0) {
+            continue;
+        }
+        const double area = 0.5 * std::abs(cross(xy[1] - xy[0], xy[2] - xy[0]));
+        double shortfall = 0.0;  // mean over six inner points of dome - linear
+        int samples = 0;
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; i + j < 3; ++j) {
+                const double u = (i + 1.0 / 3.0) / 3.0;
+                const double v = (j + 1.0 / 3.0) / 3.0;
+                const Vec2 q = xy[0] + u * (xy[1] - xy[0]) + v * (xy[2] - xy[0]);
+                const double linear = h[0] + u * (h[1] - h[0]) + v * (h[2] - h[0]);
+                shortfall += dome(q) - linear;
+                ++samples;
+            }
+        }
+        shortfall /= samples;
+        for (int i = 0; i < 3; ++i) {
+            const VertexInfo& info = f->vertex(i)->info();
+            if (info.lower < 0 && info.steiner >= 0) {
+                std::array<double, 2>& s = share[info.steiner];
+                s[0] += area * shortfall / domed;
+                s[1] += area / 3.0;
+            }
+        }
+    }
+    const double d = options_.slice_spacing_px;
+    for (const auto& [id, s] : share) {
+        if (!(s[1] > 0.0)) {
+            continue;
+        }
+        Vec3& p = mesh.positions[std::size_t(id)];
+        const double h =
+            std::clamp(sign * (p.z - z) + s[0] / s[1], d / 16.0, std::max(height, d / 16.0));
+        p.z = z + sign * h;
+    }
 }
 
 double LabelSurface::background_area(std::uint32_t slice, std::uint32_t component) const {

@@ -277,9 +277,10 @@ TEST(SharedDataCuts, NoGroupAddsAFoldWithSmallClusters) {
         Report report;
         ReconstructOptions options;
         options.multires.cluster_triangles = 256;
-        // note: the keep fraction this test was written with; at the default 0.2 levels shrink
-        // so fast that one of these surfaces has only 4 groups
-        options.multires.keep_fraction = 0.35;
+        // note: at the default 0.2 levels shrink so fast that one of these surfaces has only 4
+        // groups; the test was written with 0.35, where the brain tumour has 4 since its domes'
+        // vertices rise by their triangles' shortfall (caps.cpp unbias_dome)
+        options.multires.keep_fraction = 0.4;
         const Reconstruction r =
             reconstruct(read_stack(test::shared_data_dir() / input), options, report);
         for (const MultiresMesh& m : r.models) {

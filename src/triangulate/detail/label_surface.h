@@ -333,6 +333,14 @@ private:
     /// leaned triangle meets another triangle beyond the end planes or folds over 90 degrees
     /// against a neighbour (caps.cpp).
     void settle_end_leans();
+    /// Raises a dome's vertices by the volume its flat triangles leave out (caps.cpp).
+    template <class Dome>
+    void unbias_dome(const Cdt& cdt,
+                     std::uint32_t region,
+                     double z,
+                     double sign,
+                     double height,
+                     const Dome& dome);
     /// Signed area (px^2) of region `region` of `slice`: its outer contours less its holes.
     double region_area(std::uint32_t slice, std::uint32_t region) const;
     double cap_height(std::uint32_t k, std::uint32_t region, bool top) const;
