@@ -40,9 +40,11 @@ struct ReconstructOptions {
     /// the memory of the labels done goes to the export.
     bool keep_fields = true;
     /// Labels taken through the stages after the contours together (distance fields, medial
-    /// axes, triangulation, verification, simplification), in increasing label order; each
-    /// batch's fields and axes are freed before the next starts, so memory holds one batch's
-    /// work. 0 or keep_fields: all labels in one batch. The output is the same for any size.
+    /// axes, triangulation, verification, simplification), the labels with the most contour
+    /// points first (so that one large label does not leave the other threads idle while its
+    /// batch waits for it); each batch's fields and axes are freed before the next starts, so
+    /// memory holds one batch's work. 0 or keep_fields: all labels in one batch. The output is
+    /// the same, in label order, for any size.
     std::size_t batch_labels = 8;
     unsigned threads = 0;  ///< worker threads of every stage, 0 = all cores
     ProgressFn progress;   ///< stage progress (may be empty)

@@ -1,6 +1,8 @@
 // reconstruct() takes the labels through the stages in batches (ReconstructOptions::
 // batch_labels) so that one batch's distance fields and medial axes are in memory at a time:
-// the surfaces, models, medial axes and warnings are the same for any batch size.
+// the surfaces, models, medial axes and warnings are the same for any batch size (the batches
+// take the labels with the most contour points first, so results come out of label order and
+// are put back in it).
 
 #include <string>
 #include <vector>
