@@ -231,6 +231,21 @@ bool snap_to_grid(
             }
         }
     }
+    // Only between the surface's first and last slice planes: the stack ends' extensions (caps.cpp,
+    // leaned with the object) keep their nearest heights.
+    double low = HUGE_VAL;
+    double high = -HUGE_VAL;
+    for (const Vec3& p : mesh.positions) {
+        if (std::nearbyint(p.z / d) * d == p.z) {
+            low = std::min(low, p.z);
+            high = std::max(high, p.z);
+        }
+    }
+    for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) {
+        if (!(mesh.positions[v].z > low && mesh.positions[v].z < high)) {
+            alternative[v] = std::nan("");
+        }
+    }
     unfold_rounding(out, d, step, alternative, used);
     for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) {
         const Vec3 p = mesh.positions[v];

@@ -35,8 +35,9 @@ struct GridSnap {
 /// Snaps every vertex of `mesh` (slice space: x, y px, slice k at z = k d) to the grid of
 /// `step` (a power of two, at most 1/2 px): x and y to the nearest multiple of `step`, z to the
 /// nearest multiple of `step * d`, except where that folds the surface: a vertex between planes on
-/// a face of an edge folded over 90 degrees takes the multiple on the other side of its height
-/// (within one step) when that shrinks the squared excess over 90 degrees of its faces' edges (a
+/// a face of an edge folded over 90 degrees, between the surface's first and last slice planes,
+/// takes the multiple on the other side of its height (within one step) when that shrinks the
+/// squared excess over 90 degrees of its faces' edges (a
 /// slab of 6.4 px has a z step of 0.4 px at 1/16, and nearest rounding folded the torso liver's
 /// small faces near contours). Vertices on a slice plane stay on it, so the mesh meets the
 /// planes in the same polylines moved by at most `max_plane_shift_px`, and contour points of the

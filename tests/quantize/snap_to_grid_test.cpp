@@ -114,8 +114,11 @@ TEST(SnapToGrid, RoundsBetweenPlanesTheWayThatDoesNotFold) {
     const double step = 1.0 / 16.0;
     const double w = 19.0 / 16.0;
     TriMesh mesh;
-    mesh.positions = {{-1.0, 0.0, 1.15}, {1.0, 0.0, 1.15}, {0.0, -w, 0.0}, {0.0, w, 0.0}};
-    mesh.triangles = {{0, 1, 3}, {1, 0, 2}};
+    // (a face up to slice 1 puts the ridge between the surface's first and last planes, where
+    // the rounding may choose)
+    mesh.positions = {
+        {-1.0, 0.0, 1.15}, {1.0, 0.0, 1.15}, {0.0, -w, 0.0}, {0.0, w, 0.0}, {10.0, 10.0, d}};
+    mesh.triangles = {{0, 1, 3}, {1, 0, 2}, {2, 4, 3}};
     ASSERT_LT(ridge_angle_deg(mesh.positions), 90.0);
     std::vector<Vec3> nearest = mesh.positions;
     for (Vec3& p : nearest) {
