@@ -402,10 +402,10 @@ void add_contour_sites(const SliceContourSet& set,
                        std::uint16_t label,
                        const Window& w,
                        DistanceField& field,
+                       std::uint32_t* closest,
                        Scratch& scratch) {
     const std::int64_t nx = w.nx;
     const std::int64_t ny = w.ny;
-    std::uint32_t* closest = field.node_sites.data();
     auto node_of = [&](Vec2 p, std::size_t c, std::size_t i, std::int64_t& X, std::int64_t& Y) {
         const double dx = 2.0 * (p.x - field.origin_x);
         const double dy = 2.0 * (p.y - field.origin_y);
@@ -562,10 +562,10 @@ void sweep_rows(std::uint32_t k,
                 const Window& w,
                 std::size_t mask_width,
                 DistanceField& field,
+                std::uint32_t* closest,
                 Scratch& scratch) {
     const std::int64_t nx = w.nx;
     const std::int64_t ny = w.ny;
-    std::uint32_t* closest = field.node_sites.data();
     const std::size_t width = static_cast<std::size_t>(nx);
     scratch.side.resize(width);
     std::int8_t* side = scratch.side.data();
@@ -677,6 +677,44 @@ void sweep_rows(std::uint32_t k,
 
 /// The field of `label` on slice k over `window` (pixel box of the label on slices k-1..k+1)
 /// grown by `margin` pixels; `own` is the label's box on slice k.
+/// Packs the nodes' values (closest site | kInside, row-major) into `field` (see
+/// DistanceField::node_offsets).
+void pack_nodes(const std::vector<std::uint32_t>& values, DistanceField& field) {
+    constexpr std::size_t kBlock = DistanceField::kBlockNodes;
+    constexpr std::uint32_t kSpan = DistanceField::kOffsetInside;  // offsets below 2^15
+    const std::size_t blocks = (values.size() + kBlock - 1) / kBlock;
+    assign_large(field.node_offsets, values.size(), std::uint16_t{0});
+    field.block_bases.assign(blocks, 0);
+    field.wide_values.clear();
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const std::size_t first = b * kBlock;
+        const std::size_t last = std::min(first + kBlock, values.size());
+        std::uint32_t lo = ~std::uint32_t(0);
+        std::uint32_t hi = 0;
+        for (std::size_t n = first; n < last; ++n) {
+            const std::uint32_t site = values[n] & ~DistanceField::kInside;
+            lo = std::min(lo, site);
+            hi = std::max(hi, site);
+        }
+        if (hi - lo < kSpan) {
+            field.block_bases[b] = lo;
+            for (std::size_t n = first; n < last; ++n) {
+                const std::uint32_t v = values[n];
+                const std::uint32_t inside = (v & DistanceField::kInside) != 0 ? kSpan : 0;
+                field.node_offsets[n] =
+                    static_cast<std::uint16_t>(((v & ~DistanceField::kInside) - lo) | inside);
+            }
+        } else {
+            const std::size_t w = field.wide_values.size() / kBlock;
+            field.block_bases[b] = DistanceField::kWideBlock | static_cast<std::uint32_t>(w);
+            field.wide_values.insert(field.wide_values.end(), values.begin() + first,
+                                     values.begin() + last);
+            field.wide_values.resize((w + 1) * kBlock, 0);
+        }
+    }
+    field.wide_values.shrink_to_fit();
+}
+
 DistanceField field_in_window(const SliceStack& stack,
                               const SliceContourSet& set,
                               std::uint32_t k,
@@ -708,16 +746,18 @@ DistanceField field_in_window(const SliceStack& stack,
     field.nx = static_cast<std::uint32_t>(nx);
     field.ny = static_cast<std::uint32_t>(ny);
     const std::size_t nodes = static_cast<std::size_t>(nx * ny);
-    assign_large(field.node_sites, nodes, kNoSite);
+    std::vector<std::uint32_t> closest;
+    assign_large(closest, nodes, kNoSite);
     Scratch& scratch = thread_scratch();
     scratch.site_x.clear();
     scratch.site_y.clear();
 
     const Window w{ox, oy, pw, ph, nx, ny};
-    add_contour_sites(set, k, label, w, field, scratch);
+    add_contour_sites(set, k, label, w, field, closest.data(), scratch);
     const std::size_t mask_width = fill_window_mask(stack, k, label, w, scratch);
     sort_sites_by_row(w, field.sites.size(), scratch);
-    sweep_rows(k, label, w, mask_width, field, scratch);
+    sweep_rows(k, label, w, mask_width, field, closest.data(), scratch);
+    pack_nodes(closest, field);
 
     // ---- lower bound outside the window (see DistanceField)
     field.outside_window_px = static_cast<double>(
@@ -731,7 +771,21 @@ void DistanceField::distance_row(std::uint32_t j,
                                  std::uint32_t i0,
                                  std::uint32_t count,
                                  float* out) const {
-    const std::uint32_t* row = node_sites.data() + node_index(i0, j);
+    // note: the row's values unpacked in chunks, so the loops below stay as simple as on a
+    // plain array
+    constexpr std::uint32_t kChunk = 256;
+    if (count > kChunk) {
+        for (std::uint32_t done = 0; done < count; done += kChunk) {
+            distance_row(j, i0 + done, std::min(kChunk, count - done), out + done);
+        }
+        return;
+    }
+    std::array<std::uint32_t, kChunk> values;
+    const std::size_t first = node_index(i0, j);
+    for (std::uint32_t k = 0; k < count; ++k) {
+        values[k] = node_value(first + k);
+    }
+    const std::uint32_t* row = values.data();
     constexpr std::int64_t kExactFloat = std::int64_t(1) << 24;  // squares up to here: float path
     bool exact_float = true;
     for (std::uint32_t k = 0; k < count; ++k) {

@@ -219,14 +219,22 @@ private:
     std::vector<std::vector<double>> arcs_;
 };
 
+/// A grid edge the boundary crosses and the next such edge along the boundary.
+struct BoundaryLink {
+    std::int64_t from = 0;
+    std::int64_t to = 0;
+};
+
 /// Marching squares on {sum < 0}: for each grid edge the boundary crosses, the next such edge
-/// along the boundary (inside on the left), -1 elsewhere. Grid edge ids: 2 * node + 0 for the
-/// edge to the right, 2 * node + 1 for the edge down.
-std::vector<std::int64_t> boundary_links(const SumGrid& g) {
+/// along the boundary (inside on the left), sorted by `from` (one link per edge). Grid edge ids:
+/// 2 * node + 0 for the edge to the right, 2 * node + 1 for the edge down.
+/// note: only the crossed edges are stored, not an entry per grid edge (T32's 4096^2 slices:
+/// 620 MB a slice pair)
+std::vector<BoundaryLink> boundary_links(const SumGrid& g) {
     const std::int64_t nx = g.nx;
     const std::int64_t ny = g.ny;
     auto inside = [&](std::int64_t i, std::int64_t j) { return g.at(i, j) < 0.0f; };
-    std::vector<std::int64_t> next(static_cast<std::size_t>(2 * nx * ny), -1);
+    std::vector<BoundaryLink> next;
     for (std::int64_t j = 0; j + 1 < ny; ++j) {
         for (std::int64_t i = 0; i + 1 < nx; ++i) {
             // corners counter-clockwise in (x, y): c00, c10, c11, c01; edges e0..e3 between them
@@ -266,7 +274,7 @@ std::vector<std::int64_t> boundary_links(const SumGrid& g) {
                 return ends[0];
             };
             if (ns == 1) {
-                next[edge[starts[0]]] = edge[ends[0]];
+                next.push_back({edge[starts[0]], edge[ends[0]]});
             } else {
                 // saddle: join the inside corners when the cell centre is inside
                 const float centre =
@@ -286,12 +294,23 @@ std::vector<std::int64_t> boundary_links(const SumGrid& g) {
                             }
                         }
                     }
-                    next[edge[e_start]] = edge[e_end];
+                    next.push_back({edge[e_start], edge[e_end]});
                 }
             }
         }
     }
-
+    // note: a later link of the same edge replaced an earlier one in the per-edge table
+    std::stable_sort(next.begin(), next.end(),
+                     [](const BoundaryLink& a, const BoundaryLink& b) { return a.from < b.from; });
+    std::size_t kept = 0;
+    for (std::size_t n = 0; n < next.size(); ++n) {
+        if (kept > 0 && next[kept - 1].from == next[n].from) {
+            next[kept - 1] = next[n];
+        } else {
+            next[kept++] = next[n];
+        }
+    }
+    next.resize(kept);
     return next;
 }
 
@@ -354,17 +373,25 @@ void trace_label(std::uint16_t label,
     if (g.nx < 2 || g.ny < 2) {
         return;
     }
-    const std::vector<std::int64_t> next = boundary_links(g);
+    const std::vector<BoundaryLink> next = boundary_links(g);
     std::vector<bool> used(next.size(), false);
-    for (std::int64_t start = 0; start < static_cast<std::int64_t>(next.size()); ++start) {
-        if (next[start] < 0 || used[start]) {
+    auto link_of = [&](std::int64_t id) {
+        const auto it =
+            std::lower_bound(next.begin(), next.end(), id,
+                             [](const BoundaryLink& l, std::int64_t e) { return l.from < e; });
+        return it != next.end() && it->from == id ? std::size_t(it - next.begin()) : next.size();
+    };
+    for (std::size_t first = 0; first < next.size(); ++first) {
+        if (used[first]) {
             continue;
         }
         MedialCurve curve;
         curve.label = label;
+        const std::int64_t start = next[first].from;
         std::int64_t id = start;
+        std::size_t link = first;
         do {
-            used[id] = true;
+            used[link] = true;
             const Vec2 p = edge_crossing(g, id);
             if (curve.points.empty() || !(curve.points.back().position == p)) {
                 MedialPoint m;
@@ -378,8 +405,9 @@ void trace_label(std::uint16_t label,
                 m.upper_edge = simplified_edge(upper.contours[m.upper.contour], m.upper.point);
                 curve.points.push_back(m);
             }
-            id = next[id];
-            if (id < 0) {
+            id = next[link].to;
+            link = link_of(id);
+            if (link == next.size()) {
                 throw Error(ErrorCode::Internal,
                             "medial curve of label " + std::to_string(label) + " is not closed");
             }

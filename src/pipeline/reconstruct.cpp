@@ -135,7 +135,9 @@ void release_fields(std::vector<SliceDistanceFields>& fields, std::uint16_t labe
     for (SliceDistanceFields& slice : fields) {
         for (DistanceField& field : slice.fields) {
             if (field.label == label) {
-                field.node_sites = {};
+                field.node_offsets = {};
+                field.block_bases = {};
+                field.wide_values = {};
                 field.sites = {};
                 field.site_nodes = {};
                 field.nx = field.ny = 0;

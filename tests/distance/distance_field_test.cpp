@@ -211,7 +211,10 @@ void check_field(const SliceStack& stack,
     ASSERT_EQ(field.origin_y, double(w.y0));
     ASSERT_EQ(field.nx, std::uint32_t(2 * (w.x1 - w.x0) + 1));
     ASSERT_EQ(field.ny, std::uint32_t(2 * (w.y1 - w.y0) + 1));
-    ASSERT_EQ(field.node_sites.size(), std::size_t(field.nx) * field.ny);
+    ASSERT_EQ(field.node_offsets.size(), std::size_t(field.nx) * field.ny);
+    ASSERT_EQ(
+        field.block_bases.size(),
+        (field.node_offsets.size() + DistanceField::kBlockNodes - 1) / DistanceField::kBlockNodes);
     ASSERT_EQ(field.site_nodes.size(), field.sites.size());
     ASSERT_EQ(field.sites, expected_sites(set, label));
     expect_rows_match_at(field);
@@ -477,7 +480,9 @@ TEST(DistanceField, DeterministicForAnyThreadCount) {
                 EXPECT_EQ(a.nx, other->nx);
                 EXPECT_EQ(a.ny, other->ny);
                 EXPECT_EQ(a.outside_window_px, other->outside_window_px);
-                EXPECT_TRUE(a.node_sites == other->node_sites);
+                EXPECT_TRUE(a.node_offsets == other->node_offsets);
+                EXPECT_TRUE(a.block_bases == other->block_bases);
+                EXPECT_TRUE(a.wide_values == other->wide_values);
                 EXPECT_TRUE(a.site_nodes == other->site_nodes);
                 EXPECT_TRUE(a.sites == other->sites);
             }
@@ -589,6 +594,37 @@ TEST(DistanceField, DiscCentreIsMinusItsRadius) {
     EXPECT_GE(field.outside_window_px, 4.0);
 }
 
+/// Node (i, j) of label 1's `field` against the brute force over `sites` (doubled): its distance
+/// bit for bit (the exact distance rounded once to float) and its closest site; reports a
+/// difference.
+bool node_matches_brute_force(const DistanceField& field,
+                              const SliceContourSet& set,
+                              const std::vector<Doubled>& sites,
+                              std::uint32_t i,
+                              std::uint32_t j) {
+    const Doubled p{std::int64_t(2 * field.origin_x) + i, std::int64_t(2 * field.origin_y) + j};
+    std::int64_t best = INT64_MAX;
+    std::uint32_t argmin = 0;
+    for (std::size_t s = 0; s < sites.size(); ++s) {
+        const std::int64_t dx = p.x - sites[s].x;
+        const std::int64_t dy = p.y - sites[s].y;
+        if (dx * dx + dy * dy < best) {  // strict: the smallest index among equals
+            best = dx * dx + dy * dy;
+            argmin = std::uint32_t(s);
+        }
+    }
+    const float r = static_cast<float>(0.5 * std::sqrt(double(best)));
+    const float expected = best != 0 && inside_even_odd(set, 1, p) ? -r : r;
+    const float d = field.at(i, j);
+    const std::uint32_t closest = field.closest(field.node_index(i, j));
+    if (std::memcmp(&d, &expected, sizeof d) != 0 || closest != argmin) {
+        ADD_FAILURE() << "node (" << i << ", " << j << "): D " << d << ", expected " << expected
+                      << ", closest " << closest << ", brute argmin " << argmin;
+        return false;
+    }
+    return true;
+}
+
 TEST(DistanceField, StripsOfOverAMillionNodesAreExact) {
     // Past 2^20 nodes per side the row envelope compares by quotients instead of 64-bit
     // products, and past 2048 px the roots are taken in double instead of float: a strip of
@@ -615,31 +651,47 @@ TEST(DistanceField, StripsOfOverAMillionNodesAreExact) {
         int failures = 0;
         for (std::uint32_t j = 0; j < field.ny && failures < 5; ++j) {
             for (std::uint32_t i = 0; i < field.nx && failures < 5; ++i) {
-                const Doubled p{std::int64_t(2 * field.origin_x) + i,
-                                std::int64_t(2 * field.origin_y) + j};
-                std::int64_t best = INT64_MAX;
-                std::uint32_t argmin = 0;
-                for (std::size_t s = 0; s < sites.size(); ++s) {
-                    const std::int64_t dx = p.x - sites[s].x;
-                    const std::int64_t dy = p.y - sites[s].y;
-                    if (dx * dx + dy * dy < best) {  // strict: the smallest index among equals
-                        best = dx * dx + dy * dy;
-                        argmin = std::uint32_t(s);
-                    }
-                }
-                const float r = static_cast<float>(0.5 * std::sqrt(double(best)));
-                const float expected = best != 0 && inside_even_odd(set, 1, p) ? -r : r;
-                const float d = field.at(i, j);
-                const std::uint32_t closest = field.closest(field.node_index(i, j));
-                if (std::memcmp(&d, &expected, sizeof d) != 0 || closest != argmin) {
-                    ADD_FAILURE() << "node (" << i << ", " << j << "): D " << d << ", expected "
-                                  << expected << ", closest " << closest << ", brute argmin "
-                                  << argmin;
-                    ++failures;
-                }
+                failures += node_matches_brute_force(field, set, sites, i, j) ? 0 : 1;
             }
         }
     }
+}
+
+TEST(DistanceField, BlocksWhoseSitesSpanOver2To15AreExact) {
+    // The nodes are packed by blocks of kBlockNodes with 15-bit offsets from a base site; a block
+    // whose closest sites span 2^15 or more keeps full values. A 1 px bar of 9000 px has about
+    // 36000 sites, numbered along its contour, so the blocks where the numbering starts again span
+    // them all: those blocks and every 16th other one against the brute force, bit for bit.
+    const std::uint32_t length = 9000;
+    SliceStack stack = make_stack(length, 1, 1);
+    fill_box(stack, 0, 0, 0, length, 1, 1);
+    const SliceContourSet set = trace_slice_contours(stack, 0, {1});
+    DistanceOptions options;
+    options.margin_px = 1.0;
+    const DistanceField field = compute_distance_field(stack, set, 0, 1, options);
+    ASSERT_GT(field.sites.size(), std::size_t(1) << 15);
+    ASSERT_EQ(field.sites, expected_sites(set, 1));
+    ASSERT_FALSE(field.wide_values.empty());
+    expect_rows_match_at(field);
+    std::vector<Doubled> sites;
+    for (const ContourSite& s : field.sites) {
+        sites.push_back(doubled(site_position(set, s)));
+    }
+    const std::size_t nodes = std::size_t(field.nx) * field.ny;
+    int failures = 0;
+    std::size_t wide_nodes = 0;
+    for (std::size_t n = 0; n < nodes && failures < 5; ++n) {
+        const std::size_t block = n / DistanceField::kBlockNodes;
+        const bool wide = (field.block_bases[block] & DistanceField::kWideBlock) != 0;
+        if (!wide && block % 16 != 0) {
+            continue;
+        }
+        wide_nodes += wide ? 1 : 0;
+        const auto i = std::uint32_t(n % field.nx);
+        const auto j = std::uint32_t(n / field.nx);
+        failures += node_matches_brute_force(field, set, sites, i, j) ? 0 : 1;
+    }
+    EXPECT_GT(wide_nodes, std::size_t(0));
 }
 
 // ---- Errors -----------------------------------------------------------------------------------
