@@ -444,9 +444,9 @@ TEST(Surface, StackEndsExtendByHalfASlab) {
 }
 
 // A slanted cylinder (a disc of radius 6 px that moves 2 px in x per slice, d = 4 px) leaves
-// the stack leaning: its extensions by d/2 past the end slices lean as it does, so the top
-// ring's centre is 1 px farther in x than the last slice's and the bottom ring's 1 px nearer
-// than the first's (vertical walls: 0 px).
+// the stack leaning: its extensions by d/2 past the end slices lean as it does, so the rings
+// they end in lie nearer the cylinder's true section there than upright walls' rings would
+// (the slices' own rings, at most 0.6 of their distance).
 TEST(Surface, StackEndExtensionsLeanWithTheObject) {
     SliceStack stack;
     stack.width = 40;
