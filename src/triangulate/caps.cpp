@@ -125,8 +125,9 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
     }
     // At a stack end the walls lean as the object does: each ring point moves in the plane by
     // the change of the signed distance over half a slab, taken from the slice before.
-    const std::map<std::uint32_t, Vec2> lean =
-        stack_end ? end_lean(cdt, k, region, top) : std::map<std::uint32_t, Vec2>{};
+    const std::map<std::uint32_t, Vec2> lean = stack_end && options_.lean_stack_ends
+                                                   ? end_lean(cdt, k, region, top)
+                                                   : std::map<std::uint32_t, Vec2>{};
     std::map<std::uint32_t, std::array<std::uint32_t, 2>> lifted;  // ring id -> (below, above)
     auto lift = [&](std::uint32_t id) {
         auto it = lifted.find(id);
