@@ -1,7 +1,7 @@
 // Surface accuracy of reconstructed meshes against a phantom's analytic solids.
 //
 //   mesh_accuracy --phantom NAME [--slice-spacing D] [--pixel-mm S] [--label N] [--no-clip]
-//                 [--worst N] [--json] MESH...
+//                 [--worst N] [--by-level N] [--json] MESH...
 //
 // Regenerates the phantom with make_phantom(NAME, {pixel_mm = S, slice_spacing_px = D}), reads
 // each mesh (PLY, OBJ or STL; vertices in patient LPS mm, as `strata build` and
@@ -31,6 +31,10 @@
 // Where the max sits: its sample's position (px) and signed distance; --worst N also lists the N
 // mesh vertices farthest from the truth (position px, slice index z / d, signed distance), to
 // find what part of a surface makes the max.
+// By level (--by-level N): the same statistics over the samples in N bins of their distance from
+// the nearest slice plane, |z / d - round(z / d)| in [0, 1/2] (bin 0 holds the slice planes: the
+// surface through the simplified contours), and over the samples beyond the first or last slice
+// plane (the ends): where between the slices the error sits.
 //
 // Volume: the volume the mesh encloses (|signed volume| by the divergence theorem, px^3: closed
 // meshes oriented either way, as marching cubes' inward winding) against the volume of the union
@@ -51,6 +55,7 @@
 #include <iostream>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -78,7 +83,8 @@ struct Arguments {
     std::optional<std::uint16_t> label;  ///< compare with this label's objects only
     bool clip = true;                    ///< intersect solids with the stack's voxel extent
     bool json = false;
-    std::size_t worst = 0;  ///< list this many vertices farthest from the truth
+    std::size_t worst = 0;   ///< list this many vertices farthest from the truth
+    std::size_t levels = 0;  ///< --by-level: bins of the distance from the nearest slice plane
     std::vector<std::filesystem::path> meshes;
 };
 
@@ -111,11 +117,17 @@ struct MeshAccuracy {
     double truth_volume_px3 = 0.0;  ///< volume of the union of the solids compared with
     bool clipped = false;           ///< some solid compared with was clipped to the stack's extent
     bool exact = true;              ///< every solid compared with has an exact distance
+    /// --by-level: per bin (the last: beyond the end planes) area px^2, sum of |d| and of d
+    /// times area.
+    struct Level {
+        double area_px2 = 0.0, sum_abs = 0.0, sum_signed = 0.0;
+    };
+    std::vector<Level> levels;
 };
 
 const char* usage() {
     return "usage: mesh_accuracy --phantom NAME [--slice-spacing D] [--pixel-mm S] [--label N]\n"
-           "                     [--no-clip] [--worst N] [--json] MESH...\n"
+           "                     [--no-clip] [--worst N] [--by-level N] [--json] MESH...\n"
            "Distance from each mesh (PLY/OBJ/STL, LPS mm) to the phantom's true surface:\n"
            "triangles, area-weighted mean and RMS and the max of |d|, in px and mm.\n";
 }
@@ -166,6 +178,14 @@ Arguments parse_arguments(int argc, char** argv) {
                     "--worst: expected a count in [0, 1000000], found " + std::to_string(v));
             }
             a.worst = static_cast<std::size_t>(v);
+        } else if (arg == "--by-level") {
+            const double v = parse_number(arg, value());
+            if (v != std::floor(v) || v < 1 || v > 1000) {
+                throw Error(
+                    ErrorCode::InvalidInput,
+                    "--by-level: expected a bin count in [1, 1000], found " + std::to_string(v));
+            }
+            a.levels = static_cast<std::size_t>(v);
         } else if (arg == "--no-clip") {
             a.clip = false;
         } else if (arg == "--json") {
@@ -352,7 +372,8 @@ MeshAccuracy measure(const std::filesystem::path& path,
                      const Phantom& phantom,
                      const std::vector<TruthSolid>& truth,
                      std::optional<std::uint16_t> label,
-                     std::size_t worst) {
+                     std::size_t worst,
+                     std::size_t levels) {
     const TriMesh mesh = read_mesh(path);
     const std::uint16_t file_label = label_from_file_name(truth, path);
     const Affine3 world_to_index = inverse(phantom.stack.index_to_world);
@@ -370,6 +391,10 @@ MeshAccuracy measure(const std::filesystem::path& path,
     double sum_abs = 0.0, sum_sq = 0.0, sum_signed = 0.0;
     Vec3 sum_centroid;
     std::vector<bool> used(truth.size(), false);
+    const double last_plane = (double(phantom.stack.depth) - 1.0) * d;
+    if (levels > 0) {
+        r.levels.resize(levels + 1);
+    }
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
         const auto& tri = mesh.triangles[t];
         const Vec3 a = px[tri[0]], b = px[tri[1]], c = px[tri[2]];
@@ -409,6 +434,16 @@ MeshAccuracy measure(const std::filesystem::path& path,
             sum_sq += weight * dist * dist;
             sum_signed += weight * dist;
             sum_centroid = sum_centroid + weight * p;
+            if (levels > 0) {
+                const double s = std::abs(p.z / d - std::round(p.z / d));
+                const std::size_t bin =
+                    p.z < 0.0 || p.z > last_plane
+                        ? levels
+                        : std::min(levels - 1, static_cast<std::size_t>(2.0 * s * double(levels)));
+                r.levels[bin].area_px2 += weight;
+                r.levels[bin].sum_abs += weight * std::abs(dist);
+                r.levels[bin].sum_signed += weight * dist;
+            }
             ++r.samples;
         };
         for (int i = 0; i < n; ++i) {
@@ -501,6 +536,15 @@ nlohmann::json to_json(const MeshAccuracy& r, const Phantom& phantom) {
         }
         j["worst_vertices"] = w;
     }
+    if (!r.levels.empty()) {
+        nlohmann::json levels = nlohmann::json::array();
+        for (const MeshAccuracy::Level& l : r.levels) {
+            levels.push_back({{"area_px2", l.area_px2},
+                              {"mean_px", l.area_px2 > 0 ? l.sum_abs / l.area_px2 : 0.0},
+                              {"bias_px", l.area_px2 > 0 ? l.sum_signed / l.area_px2 : 0.0}});
+        }
+        j["by_level"] = levels;
+    }
     j["centroid_px"] = {r.centroid_px.x, r.centroid_px.y, r.centroid_px.z};
     j["volume_px3"] = r.volume_px3;
     j["truth_volume_px3"] = r.truth_volume_px3;
@@ -536,7 +580,7 @@ int run(int argc, char** argv) {
     // leaves no partial table or JSON behind
     std::vector<MeshAccuracy> results;
     for (const std::filesystem::path& path : args.meshes) {
-        results.push_back(measure(path, phantom, truth, args.label, args.worst));
+        results.push_back(measure(path, phantom, truth, args.label, args.worst, args.levels));
     }
     if (args.json) {
         nlohmann::json all = nlohmann::json::array();
@@ -565,6 +609,23 @@ int run(int argc, char** argv) {
         for (const auto& [p, dist] : r.worst) {
             std::cout << "  vertex (" << p.x << ", " << p.y << ", " << p.z << ") px, slice "
                       << p.z / phantom.slice_spacing_px << ", signed " << dist << " px\n";
+        }
+        const std::size_t bins = r.levels.empty() ? 0 : r.levels.size() - 1;
+        for (std::size_t b = 0; b < r.levels.size(); ++b) {
+            const MeshAccuracy::Level& l = r.levels[b];
+            std::ostringstream where;
+            if (b == bins) {
+                where << "beyond the end planes";
+            } else {
+                where << "|z/d - round(z/d)| in [" << 0.5 * double(b) / double(bins) << ", "
+                      << 0.5 * double(b + 1) / double(bins) << ")";
+            }
+            const double share = r.area_px2 > 0 ? l.area_px2 / r.area_px2 : 0.0;
+            std::cout << "  " << std::left << std::setw(36) << where.str() << std::right
+                      << std::fixed << std::setprecision(3) << " area " << share << "  mean "
+                      << (l.area_px2 > 0 ? l.sum_abs / l.area_px2 : 0.0) << " px  bias "
+                      << (l.area_px2 > 0 ? l.sum_signed / l.area_px2 : 0.0) << " px\n"
+                      << std::defaultfloat;
         }
     }
     return kExitOk;
