@@ -111,8 +111,10 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
     // At the ends of the stack the object may go on out of it: its last slice stands for its
     // whole cell, as a voxel does, and the region is extended by d/2 (walls and a planar cap).
     // note: unless it visibly closes within the cap's reach (then a dome, as inside the stack).
+    // A surface split at the AND layer (level_z_) is extended the same way; without, its end
+    // slices were flat caps that folded over 90 degrees against slabs overhanging them.
     const bool stack_end =
-        !slab && level_z_ == nullptr && options_.cap_reach > 0.0 &&
+        !slab && options_.cap_reach > 0.0 &&
         ((top && k + 1 == contours_.slices.size()) || (bottom && k == 0)) &&
         !(cap_height(k, region, top) < options_.cap_reach * options_.slice_spacing_px);
     const bool walls = slab || stack_end;
@@ -214,6 +216,10 @@ std::map<std::uint32_t, Vec2> LabelSurface::end_lean(const Cdt& cdt,
     if (here == nullptr || prev == nullptr) {
         return {};
     }
+    // the change over d/2 from the change over the gap to the previous slice (d, or the half
+    // slab of an AND layer, level_z_)
+    const double half_slab =
+        level_z_ == nullptr ? 0.5 : 0.5 * d / std::abs(slice_z(k) - slice_z(top ? k - 1 : k + 1));
     for_each_region_ring(k, region, [&](const Ring& ring) {
         const std::size_t n = ring.points.size();
         for (std::size_t i = 0; i < n; ++i) {
@@ -227,8 +233,8 @@ std::map<std::uint32_t, Vec2> LabelSurface::end_lean(const Cdt& cdt,
                 continue;
             }
             const Vec2 outward{t.y / length, -t.x / length};
-            const double shift = std::clamp(0.5 * (sample_field(prev, p) - sample_field(here, p)),
-                                            -0.5 * d, 0.5 * d);
+            const double shift = std::clamp(
+                half_slab * (sample_field(prev, p) - sample_field(here, p)), -0.5 * d, 0.5 * d);
             offset[ring.ids[i]] = shift * outward;
         }
     });
@@ -407,12 +413,14 @@ double LabelSurface::region_area(std::uint32_t slice, std::uint32_t region) cons
 /// partners' on the other side (each shared between its partners here by area). Infinity
 /// where the areas do not shrink.
 double LabelSurface::cap_height(std::uint32_t k, std::uint32_t region, bool top) const {
-    const double d = options_.slice_spacing_px;
     const double area = region_area(k, region);
     // The partners on the other side, and the share of each that leads to this region.
     double partner_area = 0.0;
     const std::uint32_t slab = top ? k - 1 : k;
     const std::uint32_t other = top ? k - 1 : k + 1;
+    // d, or the half slab of an AND layer (level_z_)
+    const double d =
+        level_z_ == nullptr ? options_.slice_spacing_px : std::abs(slice_z(k) - slice_z(other));
     for (const auto& [pair, count] : link_pieces_[slab]) {
         const std::uint32_t here = top ? pair.second : pair.first;
         const std::uint32_t there = top ? pair.first : pair.second;

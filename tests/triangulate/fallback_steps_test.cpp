@@ -48,14 +48,19 @@ SliceStack two_slices(const std::vector<std::string>& rows, double d) {
     return stack;
 }
 
-/// The repair steps taken on label 1, whose surface is checked against R independently of the
-/// pipeline's own verification.
-RepairRecord checked_surface(const SliceStack& stack) {
+/// The stack reconstructed from its unsimplified contours, one thread.
+Reconstruction reconstructed(const SliceStack& stack) {
     Report report;
     ReconstructOptions options;
     options.simplify = false;
     options.threads = 1;
-    const Reconstruction result = reconstruct(stack, options, report);
+    return reconstruct(stack, options, report);
+}
+
+/// The repair steps taken on label 1, whose surface is checked against R independently of the
+/// pipeline's own verification.
+RepairRecord checked_surface(const SliceStack& stack) {
+    const Reconstruction result = reconstructed(stack);
     EXPECT_EQ(result.surfaces.size(), 1u);
     if (result.surfaces.empty()) {
         return {};
@@ -156,9 +161,9 @@ TEST(FallbackSteps, WholeOriginalContours) {
     EXPECT_EQ(s.split_slabs, 0u);
 }
 
-TEST(FallbackSteps, SplitAtTheAndLayer) {
-    // seed 4114208135, slices 0-1
-    const RepairRecord s = checked_surface(two_slices(
+/// seed 4114208135 of surface_property_test, slices 0-1: needs the split at the AND layer.
+SliceStack split_fixture() {
+    return two_slices(
         {
             "..bXaaaaaXXb..",
             ".Xa.......aXb.",
@@ -167,8 +172,31 @@ TEST(FallbackSteps, SplitAtTheAndLayer) {
             ".XXXXXXXXXXXb.",
             "..bXXXXXXXXb..",
         },
-        4.0));
+        4.0);
+}
+
+TEST(FallbackSteps, SplitAtTheAndLayer) {
+    const RepairRecord s = checked_surface(split_fixture());
     EXPECT_GT(s.split_slabs, 0u);
+}
+
+// The surface split at the AND layer goes on past the stack's end slices by d/2, as every
+// other surface does (caps.cpp, stack_end): its end slices are not flat caps in their planes.
+// (The TotalSegmentator liver, split at slab 17, had flat end caps folding over 90 degrees
+// against the slabs that overhang them.)
+TEST(FallbackSteps, SplitSurfaceExtendsPastTheStackEnds) {
+    const Reconstruction result = reconstructed(split_fixture());
+    ASSERT_EQ(result.surfaces.size(), 1u);
+    ASSERT_GT(result.repairs.front().split_slabs, 0u);
+    double lo = 1e300;
+    double hi = -1e300;
+    for (const Vec3& p : result.surfaces.front().mesh.positions) {
+        lo = std::min(lo, p.z);
+        hi = std::max(hi, p.z);
+    }
+    // d = 4 px, slices at z = 0 and 4
+    EXPECT_EQ(lo, -2.0);
+    EXPECT_EQ(hi, 6.0);
 }
 
 }  // namespace
