@@ -3,7 +3,7 @@
 // half-pixel grid could remove).
 //
 //   contour_accuracy --phantom NAME [--slice-spacing D] [--tolerance T] [--sigma S] [--sag F]
-//                    [--oracle-tolerance U]
+//                    [--oracle-tolerance U] [--subdivide N] [--best] [--estimators [--window W]]
 //
 // Traces and simplifies every slice of the phantom's stack as `strata build` does
 // (extract_contours; --tolerance T, default 0.5 px) and measures, in each slice plane z = k d px,
@@ -20,7 +20,19 @@
 //               solid's signed distance in the plane nearest the vertex within +-1 px);
 //   +sag        the same, each vertex then further out by F (default 0.25) times the sum of its
 //               two chords' sagittas (the boundary's offset from the chord's midpoint along the
-//               chord's normal, by the same estimate: iso-line or truth).
+//               chord's normal, by the same estimate: iso-line or truth);
+//   best        (--best) from oracle+sag, coordinate descent of each vertex over the 1/8 px grid
+//               within 1/2 px of it, to the least in-plane error of its two edges against the
+//               truth under the same guarantee: what placement alone can reach with these vertices;
+//   iso best    (--best) the same against the iso-line (0.5 - smoothed mask) from iso+sag;
+//   iso line    (--estimators) boundary estimates alone, one per original segment: its midpoint
+//               moved along the normal of the 7 segments around it to the iso-line;
+//   fit line    (--estimators) the same to a least-squares quadratic through the segment
+//               midpoints within 2 W px along that tangent (Gaussian weight of sd W, default 3);
+//   fit best    (--estimators) the simplified vertices moved by the coordinate descent of `best`
+//               against the fit line (nearest of its segments) instead of the truth: a placement
+//               from the mask alone.
+// --subdivide N splits each simplified edge into N at original points (by index) first.
 // Moves keep the slice-error guarantee: vertex by vertex (two passes) each goes the largest
 // fraction k / 8 of its move that keeps every original point within T of its two edges, on a
 // 1/16 px grid. The oracle rows use U (default T) instead: a large U shows what the guarantee
@@ -32,6 +44,7 @@
 #include <exception>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -94,6 +107,9 @@ void sample_polygon(
 
 double sag_factor = 0.25;
 int subdivide = 1;
+bool optimise = false;
+bool estimators = false;
+double window = 3.0;
 constexpr std::size_t kNoIndex = std::numeric_limits<std::size_t>::max();
 
 double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
@@ -118,6 +134,10 @@ double edge_deviation(const Contour& c, const std::vector<Vec2>& at, std::size_t
         }
     }
     return worst;
+}
+
+bool placed_ok(const Contour& c, const std::vector<Vec2>& at, std::size_t e, double tol) {
+    return edge_deviation(c, at, e) <= tol;
 }
 
 /// Moves vertex positions along `normal` toward `offset` (per vertex) as far as every original
@@ -154,6 +174,47 @@ std::vector<Vec2> moved(const Contour& c,
     return at;
 }
 
+/// Length-weighted |f| along [a, b] at 8 points per px (at least 4).
+template <class F>
+double edge_cost(Vec2 a, Vec2 b, F&& f) {
+    const double len = norm(b - a);
+    const int n = std::max(4, static_cast<int>(std::ceil(8 * len)));
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+        sum += std::abs(f(a + ((i + 0.5) / n) * (b - a)));
+    }
+    return sum * len / n;
+}
+
+/// Coordinate descent from `start`: each vertex in turn goes to the point of the 1/8 px grid
+/// within 1/2 px of where it is that least costs its two edges (edge_cost of the true surface's
+/// distance `f`) while every original point stays within `tol` of them; 3 passes.
+template <class F>
+std::vector<Vec2> best_positions(const Contour& c, std::vector<Vec2> at, F&& f, double tol) {
+    const std::size_t m = at.size();
+    for (int pass = 0; pass < 3; ++pass) {
+        for (std::size_t v = 0; v < m; ++v) {
+            const std::size_t u = (v + m - 1) % m, w = (v + 1) % m;
+            const Vec2 here = at[v];
+            double cost = edge_cost(at[u], here, f) + edge_cost(here, at[w], f);
+            Vec2 chosen = here;
+            for (int dy = -4; dy <= 4; ++dy) {
+                for (int dx = -4; dx <= 4; ++dx) {
+                    at[v] = Vec2{here.x + dx / 8.0, here.y + dy / 8.0};
+                    const double candidate =
+                        edge_cost(at[u], at[v], f) + edge_cost(at[v], at[w], f);
+                    if (candidate < cost && placed_ok(c, at, u, tol) && placed_ok(c, at, v, tol)) {
+                        cost = candidate;
+                        chosen = at[v];
+                    }
+                }
+            }
+            at[v] = chosen;
+        }
+    }
+    return at;
+}
+
 int run(int argc, char** argv) {
     std::string name;
     double d = 0.0;
@@ -168,6 +229,12 @@ int run(int argc, char** argv) {
             d = std::stod(argv[++i]);
         } else if (a == "--oracle-tolerance" && i + 1 < argc) {
             free_tol = std::stod(argv[++i]);
+        } else if (a == "--estimators") {
+            estimators = true;
+        } else if (a == "--window" && i + 1 < argc) {
+            window = std::stod(argv[++i]);
+        } else if (a == "--best") {
+            optimise = true;
         } else if (a == "--subdivide" && i + 1 < argc) {
             subdivide = std::stoi(argv[++i]);
         } else if (a == "--sag" && i + 1 < argc) {
@@ -177,7 +244,10 @@ int run(int argc, char** argv) {
         } else if (a == "--sigma" && i + 1 < argc) {
             sigma = std::stod(argv[++i]);
         } else {
-            std::cerr << "usage: contour_accuracy --phantom NAME [--slice-spacing D] [--sigma S]\n";
+            std::cerr
+                << "usage: contour_accuracy --phantom NAME [--slice-spacing D] [--tolerance T]\n"
+                   "  [--sigma S] [--sag F] [--oracle-tolerance U] [--subdivide N] [--best]\n"
+                   "  [--estimators [--window W]]\n";
             return 2;
         }
     }
@@ -190,7 +260,8 @@ int run(int argc, char** argv) {
     ContourOptions co;
     co.tolerance_px = tolerance;
     const SliceContours sc = extract_contours(st, co);
-    Stats stair, simp, iso, oracle, iso_sag, oracle_sag;
+    Stats stair, simp, iso, oracle, iso_sag, oracle_sag, optimised, iso_optimised, iso_line,
+        fit_line, fit_optimised;
     std::size_t vertices = 0, points = 0, far_points = 0;
     const int W = static_cast<int>(st.width), H = static_cast<int>(st.height);
     const int r = static_cast<int>(std::ceil(3 * sigma));
@@ -354,11 +425,111 @@ int run(int argc, char** argv) {
                 return out;
             };
             const auto iso_f = [&](Vec2 q) { return 0.5 - value(q); };
+            if (estimators) {
+                // Dense boundary estimates, one point per original segment midpoint: moved along
+                // the segment's normal to the iso-line, or to a weighted least-squares quadratic
+                // through the segment midpoints within 2 * window px (Gaussian weight of sd
+                // window along the tangent).
+                const std::vector<Vec2>& pts = traced.points;
+                const std::size_t n = pts.size();
+                std::vector<Vec2> mids(n), tangent(n);
+                for (std::size_t i = 0; i < n; ++i) {
+                    const Vec2 a = pts[i], b = pts[(i + 1) % n];
+                    mids[i] = 0.5 * (a + b);
+                    tangent[i] = (1.0 / norm(b - a)) * (b - a);
+                }
+                std::vector<Vec2> on_iso(n), on_fit(n);
+                for (std::size_t i = 0; i < n; ++i) {
+                    // smoothed tangent over +-3 segments
+                    Vec2 t{0, 0};
+                    for (int o = -3; o <= 3; ++o) {
+                        t = t + tangent[(i + n + o) % n];
+                    }
+                    t = (1.0 / norm(t)) * t;
+                    const Vec2 nn{t.y, -t.x};
+                    on_iso[i] =
+                        mids[i] + root([&](double s0) { return iso_f(mids[i] + s0 * nn); }) * nn;
+                    double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
+                    double r0 = 0, r1 = 0, r2 = 0;
+                    const int reach = static_cast<int>(std::ceil(4 * window));
+                    for (int o = -reach; o <= reach; ++o) {
+                        const Vec2 q = mids[(i + n + o) % n] - mids[i];
+                        const double tt = dot(q, t), ss = dot(q, nn);
+                        if (std::abs(tt) > 2 * window) {
+                            continue;
+                        }
+                        const double w = std::exp(-0.5 * tt * tt / (window * window));
+                        const double t2 = tt * tt;
+                        m00 += w;
+                        m01 += w * tt;
+                        m02 += w * t2;
+                        m11 += w * t2;
+                        m12 += w * t2 * tt;
+                        m22 += w * t2 * t2;
+                        r0 += w * ss;
+                        r1 += w * ss * tt;
+                        r2 += w * ss * t2;
+                    }
+                    // solve the 3x3 normal equations (Cramer)
+                    const double det = m00 * (m11 * m22 - m12 * m12) -
+                                       m01 * (m01 * m22 - m12 * m02) +
+                                       m02 * (m01 * m12 - m11 * m02);
+                    double a0 = 0.0;
+                    if (std::abs(det) > 1e-12) {
+                        a0 = (r0 * (m11 * m22 - m12 * m12) - m01 * (r1 * m22 - m12 * r2) +
+                              m02 * (r1 * m12 - m11 * r2)) /
+                             det;
+                    }
+                    on_fit[i] = mids[i] + a0 * nn;
+                }
+                sample_polygon(p, c.label, z, on_iso, iso_line);
+                sample_polygon(p, c.label, z, on_fit, fit_line);
+                // vertices optimised against the fit line (its signed distance: nearest of its
+                // segments, bucketed by 1 px cells), from the simplified vertices
+                std::map<std::pair<int, int>, std::vector<std::size_t>> cells;
+                for (std::size_t i = 0; i < n; ++i) {
+                    const Vec2 mid = 0.5 * (on_fit[i] + on_fit[(i + 1) % n]);
+                    cells[{int(std::floor(mid.x)), int(std::floor(mid.y))}].push_back(i);
+                }
+                const auto fit_f = [&](Vec2 q) {
+                    double best_d = std::numeric_limits<double>::infinity(), sign = 1.0;
+                    const int cx = int(std::floor(q.x)), cy = int(std::floor(q.y));
+                    for (int dy = -2; dy <= 2; ++dy) {
+                        for (int dx = -2; dx <= 2; ++dx) {
+                            const auto it = cells.find({cx + dx, cy + dy});
+                            if (it == cells.end()) {
+                                continue;
+                            }
+                            for (const std::size_t i : it->second) {
+                                const Vec2 a = on_fit[i], b = on_fit[(i + 1) % n];
+                                const double dist = segment_distance(q, a, b);
+                                if (dist < best_d) {
+                                    best_d = dist;
+                                    // outside (positive) on the right of the segment
+                                    sign = cross(b - a, q - a) <= 0 ? 1.0 : -1.0;
+                                }
+                            }
+                        }
+                    }
+                    return std::isfinite(best_d) ? sign * best_d : 2.0;
+                };
+                sample_polygon(p, c.label, z, best_positions(c, at, fit_f, sc.tolerance_px),
+                               fit_optimised);
+            }
             const auto true_f = [&](Vec2 q) { return truth(p, c.label, {q.x, q.y, z}); };
             sample_polygon(p, c.label, z, moved(c, normal, sagged(off_iso, iso_f), sc.tolerance_px),
                            iso_sag);
-            sample_polygon(p, c.label, z, moved(c, normal, sagged(off_true, true_f), free_tol),
-                           oracle_sag);
+            const std::vector<Vec2> start = moved(c, normal, sagged(off_true, true_f), free_tol);
+            sample_polygon(p, c.label, z, start, oracle_sag);
+            if (optimise) {
+                sample_polygon(p, c.label, z, best_positions(c, start, true_f, free_tol),
+                               optimised);
+                // the same against the smoothed mask's iso-line instead of the truth, from iso+sag
+                const std::vector<Vec2> from_iso =
+                    moved(c, normal, sagged(off_iso, iso_f), sc.tolerance_px);
+                sample_polygon(p, c.label, z, best_positions(c, from_iso, iso_f, sc.tolerance_px),
+                               iso_optimised);
+            }
             vertices += m;
         }
     }
@@ -373,6 +544,15 @@ int run(int argc, char** argv) {
     row("oracle", oracle);
     row("iso+sag", iso_sag);
     row("oracle+sag", oracle_sag);
+    if (estimators) {
+        row("iso line", iso_line);
+        row("fit line", fit_line);
+        row("fit best", fit_optimised);
+    }
+    if (optimise) {
+        row("best", optimised);
+        row("iso best", iso_optimised);
+    }
     std::printf("simplified vertices %zu; staircase points %zu, beyond %g px of the truth %zu\n",
                 vertices, points, tolerance, far_points);
     return 0;
