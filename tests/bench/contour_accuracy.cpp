@@ -3,7 +3,8 @@
 // half-pixel grid could remove).
 //
 //   contour_accuracy --phantom NAME [--slice-spacing D] [--tolerance T] [--sigma S] [--sag F]
-//                    [--oracle-tolerance U] [--subdivide N] [--best] [--estimators [--window W]]
+//                    [--oracle-tolerance U] [--subdivide N] [--best]
+//                    [--estimators [--window W] [--adaptive A]]
 //
 // Traces and simplifies every slice of the phantom's stack as `strata build` does
 // (extract_contours; --tolerance T, default 0.5 px) and measures, in each slice plane z = k d px,
@@ -29,6 +30,7 @@
 //               moved along the normal of the 7 segments around it to the iso-line;
 //   fit line    (--estimators) the same to a least-squares quadratic through the segment
 //               midpoints within 2 W px along that tangent (Gaussian weight of sd W, default 3);
+//               with --adaptive A, sd A / curvature (from a first fit of sd 3), in [1.5, W];
 //   fit best    (--estimators) the simplified vertices moved by the coordinate descent of `best`
 //               against the fit line (nearest of its segments) instead of the truth: a placement
 //               from the mask alone.
@@ -110,6 +112,7 @@ int subdivide = 1;
 bool optimise = false;
 bool estimators = false;
 double window = 3.0;
+double adaptive = 0.0;
 constexpr std::size_t kNoIndex = std::numeric_limits<std::size_t>::max();
 
 double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
@@ -231,6 +234,8 @@ int run(int argc, char** argv) {
             free_tol = std::stod(argv[++i]);
         } else if (a == "--estimators") {
             estimators = true;
+        } else if (a == "--adaptive" && i + 1 < argc) {
+            adaptive = std::stod(argv[++i]);
         } else if (a == "--window" && i + 1 < argc) {
             window = std::stod(argv[++i]);
         } else if (a == "--best") {
@@ -247,7 +252,7 @@ int run(int argc, char** argv) {
             std::cerr
                 << "usage: contour_accuracy --phantom NAME [--slice-spacing D] [--tolerance T]\n"
                    "  [--sigma S] [--sag F] [--oracle-tolerance U] [--subdivide N] [--best]\n"
-                   "  [--estimators [--window W]]\n";
+                   "  [--estimators [--window W] [--adaptive A]]\n";
             return 2;
         }
     }
@@ -449,37 +454,52 @@ int run(int argc, char** argv) {
                     const Vec2 nn{t.y, -t.x};
                     on_iso[i] =
                         mids[i] + root([&](double s0) { return iso_f(mids[i] + s0 * nn); }) * nn;
-                    double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
-                    double r0 = 0, r1 = 0, r2 = 0;
-                    const int reach = static_cast<int>(std::ceil(4 * window));
-                    for (int o = -reach; o <= reach; ++o) {
-                        const Vec2 q = mids[(i + n + o) % n] - mids[i];
-                        const double tt = dot(q, t), ss = dot(q, nn);
-                        if (std::abs(tt) > 2 * window) {
-                            continue;
+                    // weighted least-squares s = a + b t + c t^2; returns {a, c}
+                    const auto fit = [&](double sd) {
+                        double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
+                        double r0 = 0, r1 = 0, r2 = 0;
+                        const int reach = static_cast<int>(std::ceil(4 * sd));
+                        for (int o = -reach; o <= reach; ++o) {
+                            const Vec2 q = mids[(i + n + o) % n] - mids[i];
+                            const double tt = dot(q, t), ss = dot(q, nn);
+                            if (std::abs(tt) > 2 * sd) {
+                                continue;
+                            }
+                            const double w = std::exp(-0.5 * tt * tt / (sd * sd));
+                            const double t2 = tt * tt;
+                            m00 += w;
+                            m01 += w * tt;
+                            m02 += w * t2;
+                            m11 += w * t2;
+                            m12 += w * t2 * tt;
+                            m22 += w * t2 * t2;
+                            r0 += w * ss;
+                            r1 += w * ss * tt;
+                            r2 += w * ss * t2;
                         }
-                        const double w = std::exp(-0.5 * tt * tt / (window * window));
-                        const double t2 = tt * tt;
-                        m00 += w;
-                        m01 += w * tt;
-                        m02 += w * t2;
-                        m11 += w * t2;
-                        m12 += w * t2 * tt;
-                        m22 += w * t2 * t2;
-                        r0 += w * ss;
-                        r1 += w * ss * tt;
-                        r2 += w * ss * t2;
+                        const double det = m00 * (m11 * m22 - m12 * m12) -
+                                           m01 * (m01 * m22 - m12 * m02) +
+                                           m02 * (m01 * m12 - m11 * m02);
+                        if (!(std::abs(det) > 1e-12)) {
+                            return std::pair<double, double>{0.0, 0.0};
+                        }
+                        const double fa =
+                            (r0 * (m11 * m22 - m12 * m12) - m01 * (r1 * m22 - m12 * r2) +
+                             m02 * (r1 * m12 - m11 * r2)) /
+                            det;
+                        const double fc =
+                            (m00 * (m11 * r2 - r1 * m12) - m01 * (m01 * r2 - r1 * m02) +
+                             r0 * (m01 * m12 - m11 * m02)) /
+                            det;
+                        return std::pair<double, double>{fa, fc};
+                    };
+                    double sd = window;
+                    if (adaptive > 0) {
+                        // a window of `adaptive` times the local radius (from a fit of sd 3)
+                        const double curvature = std::abs(2.0 * fit(3.0).second);
+                        sd = std::clamp(curvature > 0 ? adaptive / curvature : window, 1.5, window);
                     }
-                    // solve the 3x3 normal equations (Cramer)
-                    const double det = m00 * (m11 * m22 - m12 * m12) -
-                                       m01 * (m01 * m22 - m12 * m02) +
-                                       m02 * (m01 * m12 - m11 * m02);
-                    double a0 = 0.0;
-                    if (std::abs(det) > 1e-12) {
-                        a0 = (r0 * (m11 * m22 - m12 * m12) - m01 * (r1 * m22 - m12 * r2) +
-                              m02 * (r1 * m12 - m11 * r2)) /
-                             det;
-                    }
+                    const double a0 = fit(sd).first;
                     on_fit[i] = mids[i] + a0 * nn;
                 }
                 sample_polygon(p, c.label, z, on_iso, iso_line);
