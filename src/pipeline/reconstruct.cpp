@@ -285,6 +285,7 @@ void triangulate_batch(const SliceStack& stack,
 
     batch.triangulate_options = options.triangulate;
     batch.triangulate_options.slice_spacing_px = result.slice_spacing_px;
+    batch.triangulate_options.threads = options.threads;
     RepairedSurfaces repaired = triangulate_with_repairs(
         stack, result.contours, batch.fields, batch.axes, batch.triangulate_options, batch.labels,
         options.threads, batch.progress);

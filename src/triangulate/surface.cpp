@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <iterator>
+#include <memory>
 #include <mutex>
 #include <numeric>
 #include <string>
@@ -42,11 +44,7 @@ LabelTriangulation LabelSurface::build() {
     share_overlap_points();
     build_rings();
     splits_.clear();
-    for (std::uint32_t k = 0; k + 1 < slices; ++k) {
-        if (!link_pieces_[k].empty()) {
-            triangulate_slab(k);
-        }
-    }
+    triangulate_slabs();
     for (std::uint32_t k = 0; k < slices; ++k) {
         for (std::uint32_t r = 0; r < region_count_[k]; ++r) {
             const bool top = !linked_up_[k][r];
@@ -87,6 +85,105 @@ LabelTriangulation LabelSurface::build() {
         surface_.issues.begin(), surface_.issues.end(),
         [](const SlabIssue& a, const SlabIssue& b) { return a.lower_slice < b.lower_slice; });
     return {std::move(surface_), std::move(mismatched_slabs_)};
+}
+
+void LabelSurface::triangulate_slabs() {
+    std::vector<std::uint32_t> slabs;
+    for (std::uint32_t k = 0; k + 1 < contours_.slices.size(); ++k) {
+        if (!link_pieces_[k].empty()) {
+            slabs.push_back(k);
+        }
+    }
+    // note: a ring point's coordinates as doubles tighten once its exact value is known (a
+    // crossing computed lazily); known from here on, the two slabs of a slice read the same
+    // doubles whichever of them runs first
+    for (const std::vector<Ring>& slice : rings_) {
+        for (const Ring& ring : slice) {
+            for (const Point& p : ring.points) {
+                CGAL::exact(p);
+            }
+        }
+    }
+    if (resolve_thread_count(options_.threads) <= 1 || slabs.size() < 2) {
+        for (const std::uint32_t k : slabs) {
+            triangulate_slab(k);
+        }
+        return;
+    }
+    // Each slab is built by a copy of this set-up (one per thread, reused) into a part: its new
+    // vertices numbered from `base` on, its triangles, issues and Steiner heights. The parts are
+    // appended in slab order, their new vertices renumbered as the serial loop numbers them.
+    struct SlabPart {
+        std::vector<Vec3> positions;
+        std::vector<std::array<std::uint32_t, 3>> triangles;
+        std::vector<SlabIssue> issues;
+        std::vector<std::uint32_t> mismatched;
+        std::vector<FreeHeightVertex> free_heights;
+        std::uint32_t slabs = 0;
+        std::uint32_t failed = 0;
+        std::uint32_t steiner = 0;
+        std::uint32_t mismatches = 0;
+    };
+    const auto base = std::uint32_t(surface_.mesh.positions.size());
+    std::vector<SlabPart> parts(slabs.size());
+    std::mutex idle_mutex;
+    std::vector<std::unique_ptr<LabelSurface>> idle;
+    parallel_for(slabs.size(), options_.threads, [&](std::size_t i) {
+        std::unique_ptr<LabelSurface> worker;
+        {
+            const std::lock_guard<std::mutex> lock(idle_mutex);
+            if (!idle.empty()) {
+                worker = std::move(idle.back());
+                idle.pop_back();
+            }
+        }
+        if (!worker) {
+            worker = std::make_unique<LabelSurface>(*this);
+        }
+        ObjectSurface& s = worker->surface_;
+        s.mesh.positions.resize(base);
+        s.mesh.triangles.clear();
+        s.issues.clear();
+        s.slabs = s.failed_slabs = s.steiner_points = s.topology_mismatches = 0;
+        worker->mismatched_slabs_.clear();
+        worker->free_heights_.clear();
+        worker->triangulate_slab(slabs[i]);
+        SlabPart& part = parts[i];
+        part.positions.assign(s.mesh.positions.begin() + base, s.mesh.positions.end());
+        part.triangles = std::move(s.mesh.triangles);
+        part.issues = std::move(s.issues);
+        part.mismatched = std::move(worker->mismatched_slabs_);
+        part.free_heights = std::move(worker->free_heights_);
+        part.slabs = s.slabs;
+        part.failed = s.failed_slabs;
+        part.steiner = s.steiner_points;
+        part.mismatches = s.topology_mismatches;
+        const std::lock_guard<std::mutex> lock(idle_mutex);
+        idle.push_back(std::move(worker));
+    });
+    idle.clear();
+    TriMesh& mesh = surface_.mesh;
+    for (SlabPart& part : parts) {
+        const auto shift = std::uint32_t(mesh.positions.size()) - base;
+        mesh.positions.insert(mesh.positions.end(), part.positions.begin(), part.positions.end());
+        for (std::array<std::uint32_t, 3> t : part.triangles) {
+            for (std::uint32_t& v : t) {
+                v += v >= base ? shift : 0;
+            }
+            mesh.triangles.push_back(t);
+        }
+        for (FreeHeightVertex& f : part.free_heights) {
+            f.id += shift;
+            free_heights_.push_back(f);
+        }
+        std::move(part.issues.begin(), part.issues.end(), std::back_inserter(surface_.issues));
+        mismatched_slabs_.insert(mismatched_slabs_.end(), part.mismatched.begin(),
+                                 part.mismatched.end());
+        surface_.slabs += part.slabs;
+        surface_.failed_slabs += part.failed;
+        surface_.steiner_points += part.steiner;
+        surface_.topology_mismatches += part.mismatches;
+    }
 }
 
 }  // namespace detail

@@ -46,6 +46,9 @@ struct TriangulateOptions {
     unsigned refine_rounds = 12;
     /// Steiner heights moved within their slab to unfold the surface (relax_heights.h).
     RelaxHeightsOptions relax;
+    /// Threads over one label's slabs (0: all cores; core/parallel.h: inside a parallel_for
+    /// over labels, the threads with no label left help). The surface is the same for any count.
+    unsigned threads = 1;
 };
 
 /// Something the triangulation could not do as the semantics ask, for one slab of one label.

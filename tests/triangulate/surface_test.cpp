@@ -169,25 +169,56 @@ TEST_P(CatalogueSurface, IsClosedManifoldWithReferenceTopology) {
     }
 }
 
+/// The surfaces of `name`'s labels (no simplification, no verification) on `threads` threads.
+Reconstruction surfaces_on(const char* name, unsigned threads) {
+    const Phantom phantom = make_phantom(name);
+    Report report;
+    ReconstructOptions options;
+    options.simplify = false;  // surfaces only
+    options.verify = false;
+    options.threads = threads;
+    return reconstruct(phantom.stack, options, report);
+}
+
 // Same surfaces for any thread count and heap layout (a second run in the same process sees
 // other addresses): nothing may depend on the order of pointers.
 TEST(Surface, IdenticalForAnyThreadCount) {
     for (const char* name : {"t35_speckle_noise", "t33_many_components", "scene"}) {
         SCOPED_TRACE(name);
-        const Phantom phantom = make_phantom(name);
-        Report report;
-        ReconstructOptions options;
-        options.simplify = false;  // surfaces only
-        options.simplify = false;  // surfaces only
-        options.verify = false;
-        options.threads = 1;
-        const Reconstruction one = reconstruct(phantom.stack, options, report);
-        options.threads = 2;
-        const Reconstruction two = reconstruct(phantom.stack, options, report);
+        const Reconstruction one = surfaces_on(name, 1);
+        const Reconstruction two = surfaces_on(name, 2);
         ASSERT_EQ(one.surfaces.size(), two.surfaces.size());
         for (std::size_t i = 0; i < one.surfaces.size(); ++i) {
             EXPECT_TRUE(one.surfaces[i].mesh.positions == two.surfaces[i].mesh.positions);
             EXPECT_TRUE(one.surfaces[i].mesh.triangles == two.surfaces[i].mesh.triangles);
+        }
+    }
+}
+
+// One label's slabs go over the threads (TriangulateOptions::threads; alone in its batch, the
+// label gets them all): its surface is the same as the serial loop's, vertex for vertex, with
+// the same issues and counts, on stacks of many slabs with branches, holes and cavities.
+TEST(Surface, OneLabelsSlabsIdenticalOnAnyThreadCount) {
+    for (const char* name : {"t06_spiral", "t16_n_to_m_tree", "t10_internal_cavity"}) {
+        SCOPED_TRACE(name);
+        const Reconstruction one = surfaces_on(name, 1);
+        const Reconstruction three = surfaces_on(name, 3);
+        ASSERT_EQ(one.surfaces.size(), three.surfaces.size());
+        for (std::size_t i = 0; i < one.surfaces.size(); ++i) {
+            const ObjectSurface& a = one.surfaces[i];
+            const ObjectSurface& b = three.surfaces[i];
+            EXPECT_GE(a.slabs, 4u);  // enough slabs for every thread to build some
+            EXPECT_TRUE(a.mesh.positions == b.mesh.positions);
+            EXPECT_TRUE(a.mesh.triangles == b.mesh.triangles);
+            EXPECT_EQ(a.slabs, b.slabs);
+            EXPECT_EQ(a.steiner_points, b.steiner_points);
+            EXPECT_EQ(a.topology_mismatches, b.topology_mismatches);
+            EXPECT_EQ(a.failed_slabs, b.failed_slabs);
+            ASSERT_EQ(a.issues.size(), b.issues.size());
+            for (std::size_t j = 0; j < a.issues.size(); ++j) {
+                EXPECT_EQ(a.issues[j].lower_slice, b.issues[j].lower_slice);
+                EXPECT_EQ(a.issues[j].what, b.issues[j].what);
+            }
         }
     }
 }

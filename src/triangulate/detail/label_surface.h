@@ -249,6 +249,9 @@ private:
     void build_rings();
 
     // --- per slab ------------------------------------------------------------------------------
+    /// Every slab with links, in slab order: on options_.threads threads, each slab built by a
+    /// copy of this set-up, its new vertices and triangles appended in slab order (surface.cpp).
+    void triangulate_slabs();
     void triangulate_slab(std::uint32_t k);
     /// Whether p lies inside a face of the surface's domain of slab k (not on an edge).
     bool in_surface_at(const Cdt& cdt, const Point& p, std::uint32_t k) const;
