@@ -286,6 +286,8 @@ void triangulate_batch(const SliceStack& stack,
     batch.triangulate_options = options.triangulate;
     batch.triangulate_options.slice_spacing_px = result.slice_spacing_px;
     batch.triangulate_options.threads = options.threads;
+    batch.triangulate_options.grid_step = options.quantize.enabled ? options.quantize.step : 0.0;
+    batch.triangulate_options.grid_halvings = options.quantize.max_halvings;
     RepairedSurfaces repaired = triangulate_with_repairs(
         stack, result.contours, batch.fields, batch.axes, batch.triangulate_options, batch.labels,
         options.threads, batch.progress);

@@ -288,18 +288,10 @@ std::string quantize_with_repairs(const SliceStack& stack,
     const TriMesh original = surface.mesh;
     std::string why;
     bool original_checked = false;
-    // Each step is tried with the rounding that avoids folds, then, where that fails, with
-    // nearest rounding (moving a vertex between planes by one step can push it through a
-    // neighbouring sheet), before a finer step.
     double step = options.step;
-    for (unsigned attempt = 0; attempt <= 2 * options.max_halvings + 1; ++attempt) {
-        const bool unfold = attempt % 2 == 0;
-        if (attempt > 0 && unfold) {
-            step /= 2.0;
-        }
+    for (unsigned attempt = 0; attempt <= options.max_halvings; ++attempt, step /= 2.0) {
         GridSnap snap;
-        if (!snap_to_grid(original, slice_spacing_px, step, snap, why, unfold)) {
-            attempt += unfold ? 1 : 0;  // note: vertices merge before any unfolding: finer now
+        if (!snap_to_grid(original, slice_spacing_px, step, snap, why)) {
             continue;
         }
         surface.mesh = std::move(snap.mesh);
@@ -376,11 +368,9 @@ void rebuild_at_corners(const SliceStack& stack,
         labels.push_back(result.surfaces[i].label);
     }
     result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
-    TriangulateOptions upright = options.triangulate;
-    upright.lean_stack_ends = false;
     RepairedSurfaces rebuilt =
-        triangulate_with_repairs(stack, result.contours, result.fields, result.medial_axes, upright,
-                                 labels, options.threads, nullptr);
+        triangulate_with_repairs(stack, result.contours, result.fields, result.medial_axes,
+                                 options.triangulate, labels, options.threads, nullptr);
     for (std::size_t j = 0; j < redo.size(); ++j) {
         const std::size_t i = redo[j];
         const std::string first_try = unsnapped[i];
@@ -394,8 +384,7 @@ void rebuild_at_corners(const SliceStack& stack,
         const std::string why = first_try.substr(first_try.find(": ") + 2);
         report.warn("contours", "label " + std::to_string(result.surfaces[i].label),
                     "could not be snapped to a grid with edge-midpoint contours (" + why +
-                        "); built again with contour vertices at pixel corners only and upright "
-                        "walls at the stack's ends: " +
+                        "); built again with contour vertices at pixel corners only: " +
                         (unsnapped[i].empty() ? "snapped to the grid of step " +
                                                     std::to_string(result.surfaces[i].grid_step) +
                                                     " px, in the progressive model"

@@ -117,8 +117,7 @@ struct RebuildOptions {
 
 /// kLabelAtCorners for the surfaces `redo` (indices into `result.surfaces`, whose
 /// `unsnapped[i]` says why they stayed unsnapped): re-simplifies their contours in
-/// `result.contours` at pixel corners, recomputes `result.medial_axes`, triangulates them with
-/// upright walls at the stack's ends (TriangulateOptions::lean_stack_ends false)
+/// `result.contours` at pixel corners, recomputes `result.medial_axes`, triangulates them
 /// (triangulate_with_repairs, replacing their `result.repairs`) and quantizes them again
 /// (quantize_with_repairs, updating `unsnapped`). Warns in `report` how each rebuild ended.
 void rebuild_at_corners(const SliceStack& stack,

@@ -170,12 +170,8 @@ void unfold_rounding(GridSnap& out,
 
 }  // namespace
 
-bool snap_to_grid(const TriMesh& mesh,
-                  double slice_spacing_px,
-                  double step,
-                  GridSnap& out,
-                  std::string& why,
-                  bool unfold) {
+bool snap_to_grid(
+    const TriMesh& mesh, double slice_spacing_px, double step, GridSnap& out, std::string& why) {
     if (!is_power_of_two(step) || step > 0.5) {
         throw Error(ErrorCode::InvalidInput, "snap_to_grid: step " + std::to_string(step) +
                                                  " px, expected a power of two in (0, 1/2]");
@@ -250,9 +246,7 @@ bool snap_to_grid(const TriMesh& mesh,
             alternative[v] = std::nan("");
         }
     }
-    if (unfold) {
-        unfold_rounding(out, d, step, alternative, used);
-    }
+    unfold_rounding(out, d, step, alternative, used);
     for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) {
         const Vec3 p = mesh.positions[v];
         const Vec3 q = out.mesh.positions[v];

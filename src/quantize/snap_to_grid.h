@@ -48,15 +48,9 @@ struct GridSnap {
 /// Returns false, with the reason in `why`, when the step is too coarse for the mesh: two
 /// vertices would land on one grid point, or a vertex between planes would land on a plane. It
 /// does not check self-intersection (the caller verifies the snapped surface).
-/// `unfold` false: every z to the nearest multiple (the caller's fallback where the rounding that
-/// avoids folds leaves the surface self-intersecting).
 /// \throw Error{InvalidInput} when `step` is not a power of two in (0, 1/2] or d <= 0.
-bool snap_to_grid(const TriMesh& mesh,
-                  double slice_spacing_px,
-                  double step,
-                  GridSnap& out,
-                  std::string& why,
-                  bool unfold = true);
+bool snap_to_grid(
+    const TriMesh& mesh, double slice_spacing_px, double step, GridSnap& out, std::string& why);
 
 /// `positions` (slice space: x, y in px, z = slice index times `slice_spacing_px`) in the grid
 /// frame of step `grid_step` (snap_to_grid): x and y unchanged, z the slice index

@@ -2,6 +2,8 @@
 // a dome beyond its plane, by walls and a planar cap at the stack's ends, or, alone on its
 // slice, by a slab of thickness d/2.
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstddef>
 
 #include "mesh/self_intersection.h"
@@ -127,9 +129,8 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
     }
     // At a stack end the walls lean as the object does: each ring point moves in the plane by
     // the change of the signed distance over half a slab, taken from the slice before.
-    const std::map<std::uint32_t, Vec2> lean = stack_end && options_.lean_stack_ends
-                                                   ? end_lean(cdt, k, region, top)
-                                                   : std::map<std::uint32_t, Vec2>{};
+    const std::map<std::uint32_t, Vec2> lean =
+        stack_end ? end_lean(cdt, k, region, top) : std::map<std::uint32_t, Vec2>{};
     std::map<std::uint32_t, std::array<std::uint32_t, 2>> lifted;  // ring id -> (below, above)
     auto lift = [&](std::uint32_t id) {
         auto it = lifted.find(id);
@@ -272,10 +273,12 @@ std::map<std::uint32_t, Vec2> LabelSurface::end_lean(const Cdt& cdt,
 }
 
 /// The leans of cap_region are checked once every cap is made. The triangles beyond the stack's
-/// end planes (walls, caps, domes, single-slice slabs) must not meet one another, and no leaned
-/// triangle may fold over 90 degrees against a neighbour that is not in a slice plane (the slab
-/// below a wall, the next wall). Each leaned vertex of such a triangle gives back half its lean,
-/// then the rest; rounds go on until nothing is found.
+/// end planes (walls, caps, domes, single-slice slabs) must not meet one another, as triangulated
+/// and as the quantize stage will store them (snapped to each grid step it may take,
+/// TriangulateOptions::grid_step), and no leaned triangle may fold over 90 degrees against a
+/// neighbour that is not in a slice plane (the slab below a wall, the next wall). Each leaned
+/// vertex of such a triangle gives back half its lean, then the rest; rounds go on until nothing
+/// is found.
 void LabelSurface::settle_end_leans() {
     if (leans_.empty()) {
         return;
@@ -337,21 +340,55 @@ void LabelSurface::settle_end_leans() {
         return mesh.positions[c[0]].z == mesh.positions[c[1]].z &&
                mesh.positions[c[1]].z == mesh.positions[c[2]].z;
     };
+    // The triangles beyond, on their own vertices (`global`: their ids in the mesh).
+    TriMesh part;
+    std::vector<std::uint32_t> global;
+    {
+        std::vector<std::uint32_t> local(vertices, std::uint32_t(-1));
+        for (const std::uint32_t t : beyond) {
+            std::array<std::uint32_t, 3> corners{};
+            for (std::size_t i = 0; i < 3; ++i) {
+                const std::uint32_t v = mesh.triangles[t][i];
+                if (local[v] == std::uint32_t(-1)) {
+                    local[v] = std::uint32_t(global.size());
+                    global.push_back(v);
+                }
+                corners[i] = local[v];
+            }
+            part.triangles.push_back(corners);
+        }
+    }
+    // The grid steps the quantize stage may store the surface at (snap_to_grid: beyond the end
+    // planes every coordinate is rounded to the nearest multiple; z in slices, the grid frame).
+    std::vector<double> steps;
+    if (options_.grid_step > 0.0) {
+        for (unsigned h = 0; h <= options_.grid_halvings; ++h) {
+            steps.push_back(std::ldexp(options_.grid_step, -int(h)));
+        }
+    }
+    const double d = options_.slice_spacing_px;
+    auto snapped = [&](Vec3 p, double step) {
+        const double slice = std::nearbyint(p.z / d);
+        return Vec3{std::nearbyint(p.x / step) * step, std::nearbyint(p.y / step) * step,
+                    slice * d == p.z ? slice : std::nearbyint(p.z / d / step) * step};
+    };
     std::vector<int> halvings(leans_.size(), 0);
     for (int round = 0; round < 16; ++round) {
         std::vector<std::uint32_t> bad;  // triangles whose leaned corners give back
-        TriMesh part;
-        part.positions = mesh.positions;
-        for (const std::uint32_t t : beyond) {
-            part.triangles.push_back(mesh.triangles[t]);
-        }
-        const SelfIntersections hits = find_self_intersections(part, 0);
-        for (const auto& [a, b] : hits.pairs) {
-            bad.push_back(beyond[a]);
-            bad.push_back(beyond[b]);
-        }
-        for (const std::uint32_t t : hits.degenerate_triangles) {
-            bad.push_back(beyond[t]);
+        for (std::size_t s = 0; s <= steps.size(); ++s) {
+            part.positions.resize(global.size());
+            for (std::size_t i = 0; i < global.size(); ++i) {
+                const Vec3 p = mesh.positions[global[i]];
+                part.positions[i] = s == 0 ? p : snapped(p, steps[s - 1]);
+            }
+            const SelfIntersections hits = find_self_intersections(part, 0);
+            for (const auto& [a, b] : hits.pairs) {
+                bad.push_back(beyond[a]);
+                bad.push_back(beyond[b]);
+            }
+            for (const std::uint32_t t : hits.degenerate_triangles) {
+                bad.push_back(beyond[t]);
+            }
         }
         for (const auto& [e, faces] : faces_of_edge) {
             if (faces.size() != 2 || flat(faces[0]) || flat(faces[1])) {

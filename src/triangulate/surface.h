@@ -31,10 +31,13 @@ struct TriangulateOptions {
     /// slice (the object goes on past its last slice by less than d); 0: planar caps in the
     /// end slices, as before.
     double cap_reach = 0.75;
-    /// At the stack's first and last slice, the walls of a region extended by d/2 lean as the
-    /// object does (caps.cpp end_lean); false: upright walls (the rebuild when a surface does not
-    /// snap to a grid: leaned walls can pass that close to one another).
-    bool lean_stack_ends = true;
+    /// The quantize grid the surface will be stored on (QuantizeOptions::step, px in x, y and
+    /// slices in z, and its `grid_halvings` finer steps): at the stack's first and last slice the
+    /// walls of a region extended by d/2 lean as the object does (caps.cpp end_lean), and each
+    /// lean is checked at the snapped positions of every such step (settle_end_leans), so that a
+    /// lean the grid cannot store is not made. 0: checked as triangulated only (quantize off).
+    double grid_step = 1.0 / 16.0;
+    unsigned grid_halvings = 3;
     /// Steiner heights from a monotone cubic (Catmull-Rom) interpolation in z of the signed
     /// distance fields of slices k-1 .. k+2 instead of the linear D_k / (D_k - D_k+1).
     bool cubic_height = true;
