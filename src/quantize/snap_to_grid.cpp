@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "mesh/mesh_adjacency.h"
 
 namespace strata {
 
@@ -33,10 +34,6 @@ bool is_power_of_two(double step) {
     return step > 0.0 && std::frexp(step, &exponent) == 0.5;
 }
 
-std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
-    return a < b ? (std::uint64_t(a) << 32) | b : (std::uint64_t(b) << 32) | a;
-}
-
 /// Rounding z to the nearest grid height can fold the surface where the grid is coarse in z
 /// (a slab 6.4 px deep and a step of 1/16 slice: 0.4 px, against 1/16 px in x, y): a Steiner
 /// point 0.3 px beside a contour goes up or down by up to 0.2 px. Each vertex between planes
@@ -51,39 +48,8 @@ void unfold_rounding(GridSnap& out,
                      std::unordered_map<GridKey, std::uint32_t, GridKeyHash>& used) {
     TriMesh& mesh = out.mesh;
     const std::size_t n = mesh.positions.size();
-    std::vector<std::size_t> first(n + 1, 0);
-    for (const auto& t : mesh.triangles) {
-        for (const std::uint32_t v : t) {
-            ++first[v + 1];
-        }
-    }
-    for (std::size_t v = 0; v < n; ++v) {
-        first[v + 1] += first[v];
-    }
-    std::vector<std::uint32_t> faces(first[n]);
-    std::vector<std::size_t> fill(first.begin(), first.end() - 1);
-    // per undirected edge: its first and last face and the number of faces
-    std::unordered_map<std::uint64_t, std::array<std::uint32_t, 3>> edges;
-    edges.reserve(mesh.triangles.size() * 2);
-    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
-        const auto& t = mesh.triangles[f];
-        for (int i = 0; i < 3; ++i) {
-            faces[fill[t[std::size_t(i)]]++] = f;
-            auto [it, added] = edges.try_emplace(edge_key(t[std::size_t(i)], t[(i + 1) % 3]),
-                                                 std::array<std::uint32_t, 3>{f, f, 0});
-            if (!added) {
-                it->second[1] = f;
-            }
-            ++it->second[2];
-        }
-    }
-    auto unit_normal = [&](std::uint32_t f) {
-        const auto& t = mesh.triangles[f];
-        const Vec3 p0 = mesh.positions[t[0]];
-        const Vec3 c = cross(mesh.positions[t[1]] - p0, mesh.positions[t[2]] - p0);
-        const double length = norm(c);
-        return length > 0.0 ? (1.0 / length) * c : Vec3{};
-    };
+    const MeshAdjacency adjacency(mesh);
+    auto unit_normal = [&](std::uint32_t f) { return unit_face_normal(mesh, f); };
     constexpr double kDegrees = 180.0 / 3.14159265358979323846;
     auto fold_excess = [&](const std::array<std::uint32_t, 3>& e) {
         const Vec3 a = unit_normal(e[0]);
@@ -94,28 +60,16 @@ void unfold_rounding(GridSnap& out,
         const double angle = std::acos(std::clamp(dot(a, b), -1.0, 1.0)) * kDegrees;
         return std::max(0.0, angle - 90.0);
     };
-    auto star_edges = [&](std::uint32_t v) {
-        std::vector<std::uint64_t> keys;
-        for (std::size_t i = first[v]; i < first[v + 1]; ++i) {
-            const auto& t = mesh.triangles[faces[i]];
-            for (int j = 0; j < 3; ++j) {
-                keys.push_back(edge_key(t[std::size_t(j)], t[std::size_t((j + 1) % 3)]));
-            }
-        }
-        std::sort(keys.begin(), keys.end());
-        keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-        return keys;
-    };
     auto cost = [&](const std::vector<std::uint64_t>& keys) {
         double sum = 0.0;
         for (const std::uint64_t key : keys) {
-            const double excess = fold_excess(edges.at(key));
+            const double excess = fold_excess(adjacency.edge(key));
             sum += excess * excess;
         }
         return sum;
     };
     std::vector<bool> active(n, false);
-    for (const auto& [key, e] : edges) {
+    for (const auto& [key, e] : adjacency.edges()) {
         if (fold_excess(e) > 0.0) {
             for (const std::uint32_t f : {e[0], e[1]}) {
                 for (const std::uint32_t v : mesh.triangles[f]) {
@@ -141,7 +95,7 @@ void unfold_rounding(GridSnap& out,
             if (used.count(to) != 0) {
                 continue;
             }
-            const std::vector<std::uint64_t> keys = star_edges(v);
+            const std::vector<std::uint64_t> keys = adjacency.star_edges(v);
             const double before = cost(keys);
             const double z = p.z;
             p.z = alternative[v] * step * d;
@@ -150,8 +104,8 @@ void unfold_rounding(GridSnap& out,
                 used.emplace(to, v);
                 alternative[v] = qz;
                 any = true;
-                for (std::size_t i = first[v]; i < first[v + 1]; ++i) {
-                    for (const std::uint32_t u : mesh.triangles[faces[i]]) {
+                for (const std::uint32_t f : adjacency.faces_around(v)) {
+                    for (const std::uint32_t u : mesh.triangles[f]) {
                         if (u != v) {
                             next[u] = true;
                         }

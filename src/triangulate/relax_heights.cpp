@@ -3,69 +3,27 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_map>
+
+#include "mesh/mesh_adjacency.h"
 
 namespace strata {
 namespace {
 
 constexpr double kDegrees = 180.0 / 3.14159265358979323846;
 
-std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
-    return a < b ? (std::uint64_t(a) << 32) | b : (std::uint64_t(b) << 32) | a;
-}
-
 class FoldRelaxer {
 public:
     FoldRelaxer(TriMesh& mesh, const RelaxHeightsOptions& options)
-        : mesh_(mesh), options_(options) {
-        const std::size_t n = mesh.positions.size();
-        first_.assign(n + 1, 0);
-        for (const auto& t : mesh.triangles) {
-            for (const std::uint32_t v : t) {
-                ++first_[v + 1];
-            }
-        }
-        for (std::size_t v = 0; v < n; ++v) {
-            first_[v + 1] += first_[v];
-        }
-        faces_.resize(first_[n]);
-        std::vector<std::size_t> fill(first_.begin(), first_.end() - 1);
-        for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
-            for (const std::uint32_t v : mesh.triangles[f]) {
-                faces_[fill[v]++] = f;
-            }
-        }
-        edges_.reserve(mesh.triangles.size() * 2);
-        for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
-            const auto& t = mesh.triangles[f];
-            for (int i = 0; i < 3; ++i) {
-                auto [it, added] = edges_.try_emplace(edge_key(t[i], t[(i + 1) % 3]),
-                                                      std::array<std::uint32_t, 3>{f, f, 0});
-                if (!added) {
-                    it->second[1] = f;
-                }
-                ++it->second[2];
-            }
-        }
-    }
+        : mesh_(mesh), options_(options), adjacency_(mesh) {}
 
     /// The two faces of each edge of the faces around v (each edge once; edges without
     /// exactly two faces left out).
     std::vector<std::array<std::uint32_t, 2>> star_edge_faces(std::uint32_t v) const {
-        std::vector<std::uint64_t> keys;
-        for (std::size_t i = first_[v]; i < first_[v + 1]; ++i) {
-            const auto& t = mesh_.triangles[faces_[i]];
-            for (int j = 0; j < 3; ++j) {
-                keys.push_back(edge_key(t[std::size_t(j)], t[std::size_t((j + 1) % 3)]));
-            }
-        }
-        std::sort(keys.begin(), keys.end());
-        keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
         std::vector<std::array<std::uint32_t, 2>> out;
-        for (const std::uint64_t key : keys) {
-            const auto it = edges_.find(key);
-            if (it != edges_.end() && it->second[2] == 2) {
-                out.push_back({it->second[0], it->second[1]});
+        for (const std::uint64_t key : adjacency_.star_edges(v)) {
+            const auto& e = adjacency_.edge(key);
+            if (e[2] == 2) {
+                out.push_back({e[0], e[1]});
             }
         }
         return out;
@@ -73,23 +31,16 @@ public:
 
     /// The faces around v.
     std::vector<std::uint32_t> star_faces(std::uint32_t v) const {
-        return {faces_.begin() + std::ptrdiff_t(first_[v]),
-                faces_.begin() + std::ptrdiff_t(first_[v + 1])};
+        return adjacency_.faces_around(v);
     }
 
     /// The unit normal of face f (zero for a face without area).
-    Vec3 unit_normal(std::uint32_t f) const {
-        const auto& t = mesh_.triangles[f];
-        const Vec3 p0 = mesh_.positions[t[0]];
-        const Vec3 n = cross(mesh_.positions[t[1]] - p0, mesh_.positions[t[2]] - p0);
-        const double length = norm(n);
-        return length > 0.0 ? (1.0 / length) * n : Vec3{};
-    }
+    Vec3 unit_normal(std::uint32_t f) const { return unit_face_normal(mesh_, f); }
 
     std::vector<std::uint32_t> neighbours(std::uint32_t v) const {
         std::vector<std::uint32_t> out;
-        for (std::size_t i = first_[v]; i < first_[v + 1]; ++i) {
-            for (const std::uint32_t u : mesh_.triangles[faces_[i]]) {
+        for (const std::uint32_t f : adjacency_.faces_around(v)) {
+            for (const std::uint32_t u : mesh_.triangles[f]) {
                 if (u != v) {
                     out.push_back(u);
                 }
@@ -115,10 +66,7 @@ public:
 private:
     TriMesh& mesh_;
     const RelaxHeightsOptions& options_;
-    std::vector<std::size_t> first_;    ///< CSR offsets of each vertex's faces
-    std::vector<std::uint32_t> faces_;  ///< faces per vertex
-    /// Per undirected edge: its first and last face and the number of faces.
-    std::unordered_map<std::uint64_t, std::array<std::uint32_t, 3>> edges_;
+    MeshAdjacency adjacency_;
 };
 
 }  // namespace
