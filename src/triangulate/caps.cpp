@@ -42,10 +42,10 @@ double dome_rise(double height, double depth, double dmax) {
     return height * (1.0 - u * u);
 }
 
-/// Dmax: the depth of the deepest of the field's nodes in the box (lo, hi) that lies inside
-/// region `region` (of the 256 deepest nodes inside the label); 0 when none does.
-double deepest_inside(
-    const Cdt& cdt, const DistanceField& field, std::uint32_t region, Vec2 lo, Vec2 hi) {
+/// Dmax: the depth of the deepest of the field's nodes in the box (lo, hi) for which
+/// `inside(q)` holds (of the 256 deepest nodes inside the label); 0 when none does.
+template <class Inside>
+double deepest_inside(const DistanceField& field, Vec2 lo, Vec2 hi, const Inside& inside) {
     const DistanceField* f = &field;
     const double x0 = lo.x, y0 = lo.y, x1 = hi.x, y1 = hi.y;
     const double cell = DistanceField::kCellPx;
@@ -70,7 +70,7 @@ double deepest_inside(
     double dmax = 0.0;
     for (std::size_t n = 0; n < deep.size() && n < 256; ++n) {
         const std::uint32_t node = deep[n].second;
-        if (inside_region(cdt, f->node_position(node % f->nx, node / f->nx), region)) {
+        if (inside(f->node_position(node % f->nx, node / f->nx))) {
             dmax = -double(deep[n].first);
             break;
         }
@@ -517,7 +517,8 @@ bool LabelSurface::dome_cap(Cdt& cdt,
             y1 = std::max(y1, q.y);
         }
     });
-    const double dmax = deepest_inside(cdt, *f, region, {x0, y0}, {x1, y1});
+    const double dmax = deepest_inside(*f, {x0, y0}, {x1, y1},
+                                       [&](Vec2 q) { return inside_region(cdt, q, region); });
     if (!(dmax > 1.0) || !(height > 0.0)) {
         return false;
     }
@@ -673,6 +674,50 @@ bool inside_ring(const std::vector<Vec2>& ring, Vec2 q) {
 }
 
 }  // namespace
+
+/// How fast the dome that closes region `region` of slice k (above when `top`) draws in at its
+/// rim: over depth D its height is H (1 - (1 - D / Dmax)^2), which rises 2 H / Dmax per px of
+/// depth at the contour, so its section moves in by Dmax / (2 H) per px of height, d Dmax / (2 H)
+/// per slab. That is how the signed distance of a point just outside the contour grows past the
+/// slice plane: the slope a cubic height through slices k - 1 and k (k + 1 and k) takes at k
+/// where no slice continues the region (lift.cpp). 0 where dome_cap makes no dome: walls at the
+/// stack's end (cap_region's test), a region too small or too flat for one.
+double LabelSurface::dome_rim_slope(std::uint32_t k, std::uint32_t region, bool top) const {
+    const double d = options_.slice_spacing_px;
+    const DistanceField* f = field(k);
+    if (level_z_ != nullptr || options_.cap_reach <= 0.0 || f == nullptr) {
+        return 0.0;
+    }
+    const double reach = cap_height(k, region, top);
+    const bool stack_end = (top && k + 1 == contours_.slices.size()) || (!top && k == 0);
+    if (stack_end && !(reach < options_.cap_reach * d)) {
+        return 0.0;
+    }
+    const double height = dome_height(reach);
+    std::vector<std::vector<Vec2>> rings;
+    Vec2 lo{1e300, 1e300};
+    Vec2 hi{-1e300, -1e300};
+    for_each_region_ring(k, region, [&](const Ring& ring) {
+        std::vector<Vec2>& r = rings.emplace_back();
+        for (const Point& p : ring.points) {
+            const Vec2 q = to_vec(p);
+            r.push_back(q);
+            lo = {std::min(lo.x, q.x), std::min(lo.y, q.y)};
+            hi = {std::max(hi.x, q.x), std::max(hi.y, q.y)};
+        }
+    });
+    const double dmax = deepest_inside(*f, lo, hi, [&](Vec2 q) {
+        bool inside = false;  // even-odd over the outer contour and the holes
+        for (const std::vector<Vec2>& r : rings) {
+            inside = inside != inside_ring(r, q);
+        }
+        return inside;
+    });
+    if (!(dmax > 1.0) || !(height >= d / 8.0)) {
+        return 0.0;
+    }
+    return d * dmax / (2.0 * height);
+}
 
 /// The cavities that close inside slab k. A hole contour of slice k (k+1) bounds a background
 /// component; when no background of the other slice is linked to it, the label covers the

@@ -142,6 +142,41 @@ bool closest_site(const DistanceField* f, Vec2 q, Vec2& site) {
     return true;
 }
 
+bool LabelSurface::end_slope(Vec2 q, std::uint32_t k, bool upper, double& slope) const {
+    if (ends_slab_ != std::int64_t(k)) {
+        for (int side = 0; side < 2; ++side) {
+            const std::uint32_t slice = k + std::uint32_t(side);
+            std::vector<EndRegion>& ends = ends_[std::size_t(side)];
+            ends.clear();
+            for (std::uint32_t r = 0; r < region_count_[slice]; ++r) {
+                // ends on the far side of the slab, continues into it
+                const bool ends_here = side == 0 ? !linked_down_[slice][r] && linked_up_[slice][r]
+                                                 : !linked_up_[slice][r] && linked_down_[slice][r];
+                const double s = ends_here ? dome_rim_slope(slice, r, side == 1) : 0.0;
+                if (s > 0.0) {
+                    std::vector<Ring> rings;
+                    for_each_region_ring(slice, r,
+                                         [&](const Ring& ring) { rings.push_back(ring); });
+                    ends.push_back({SegmentGrid(rings), s});
+                }
+            }
+        }
+        ends_slab_ = k;
+    }
+    const std::vector<EndRegion>& ends = ends_[upper ? 1 : 0];
+    if (ends.empty()) {
+        return false;
+    }
+    const double nearest = slab_rings_[upper ? 1 : 0].distance(q);
+    for (const EndRegion& end : ends) {
+        if (end.rings.distance(q) <= nearest) {
+            slope = end.slope;
+            return true;
+        }
+    }
+    return false;
+}
+
 double LabelSurface::height_t(const Point& p, std::uint32_t k, double* band) const {
     const Vec2 q = to_vec(p);
     const double a = sample_field(field(k), q);
@@ -185,6 +220,16 @@ double LabelSurface::height_t(const Point& p, std::uint32_t k, double* band) con
             m1 = 0.5 * (e - a);
         } else if (has_c) {
             m1 = 0.5 * (3.0 * b - 4.0 * a + c);
+        }
+        // Where the region of the nearest contour ends at slice k (k+1), its dome says how fast
+        // the object closes past the slice (a virtual slice k-1, k+2): the slope there is at
+        // least the dome's, so the last slab bends toward the pole as the dome does.
+        double end = 0.0;
+        if (!has_c && end_slope(q, k, false, end)) {
+            m0 = std::min(m0, -end);
+        }
+        if (!has_e && end_slope(q, k, true, end)) {
+            m1 = std::max(m1, end);
         }
         t = hermite_root(a, b, m0, m1);
     }

@@ -39,7 +39,9 @@ struct TriangulateOptions {
     double grid_step = 1.0 / 16.0;
     unsigned grid_halvings = 3;
     /// Steiner heights from a monotone cubic (Catmull-Rom) interpolation in z of the signed
-    /// distance fields of slices k-1 .. k+2 instead of the linear D_k / (D_k - D_k+1).
+    /// distance fields of slices k-1 .. k+2 instead of the linear D_k / (D_k - D_k+1). Where
+    /// the region of the nearest contour ends at slice k (k+1), the slope there is at least its
+    /// end dome's (caps.cpp, dome_rim_slope): the slab next to a pole bends as the dome does.
     bool cubic_height = true;
     /// With the cubic height: where it is farther than this (px in z) from the straight faces
     /// between a medial point and a contour, a vertex is added half way; 0: medial points only.

@@ -229,9 +229,10 @@ TEST(MultiresDag, FineBoundsAreMonotoneAndLeaveOutTheFullResolutionBound) {
     // The bound against the finest level never exceeds the slice bound and grows along the DAG.
     // It leaves out the full-resolution surface's own bound: declared loose (4 px, as coarse
     // voxels give), every group's slice bound is at least 4 px while some first-level group's
-    // bound against the finest level is below 90 % of its slice bound (at 3 px, the torus'
+    // bound against the finest level is below 95 % of its slice bound (at 3 px, the torus'
     // first-level groups reach 2.80-2.99 px since the balanced contour vertices,
-    // SimplifyOptions::balance_reach; at 4 px 3.40 px and up). Every level's cut is
+    // SimplifyOptions::balance_reach; at 4 px 3.60 px and up since the end slabs bend as the
+    // domes do, 3.40 before). Every level's cut is
     // within its bound of every full-resolution vertex (and every cut of the tests above:
     // expect_valid_cut).
     const Built b = build("torus");
@@ -252,11 +253,11 @@ TEST(MultiresDag, FineBoundsAreMonotoneAndLeaveOutTheFullResolutionBound) {
                 EXPECT_GE(g.fine_error_px, m.groups[std::size_t(p)].fine_error_px);
             }
         }
-        if (g.level == 1 && g.fine_error_px < 0.9 * g.error_px) {
+        if (g.level == 1 && g.fine_error_px < 0.95 * g.error_px) {
             ++level_one;
         }
     }
-    EXPECT_GT(level_one, 0u) << "no first-level group below 90 % of its slice bound";
+    EXPECT_GT(level_one, 0u) << "no first-level group below 95 % of its slice bound";
     // and every cut within its bound of every full-resolution vertex
     for (std::uint32_t level = 0; level < level_count(m); ++level) {
         const MultiresCut cut = select_cut_at_level(m, level);

@@ -363,6 +363,39 @@ TEST(Surface, EndDomeEnclosesTheCapVolume) {
     EXPECT_NEAR(volume / truth, 1.0, 0.06);
 }
 
+// The sphere at d = 8 px (radius 40 about z = 42: slices z = 8..80, poles at z = 2 and 82). In
+// the slabs next to the poles no slice lies beyond the end one; the cubic height takes its slope
+// there from the end dome, so the slab bends toward the pole as the sphere does. The Steiner
+// vertices inside those slabs lie on the sphere on average, within 0.2 px (by the analytic
+// distance |p - c| - 40); with the parabola through the last three slices instead, the top
+// slab's were 0.38 px inside.
+TEST(Surface, SlabsNextToThePolesBendAsTheDomesDo) {
+    PhantomOptions phantom_options;
+    phantom_options.slice_spacing_px = 8.0;
+    const Phantom phantom = make_phantom("sphere", phantom_options);
+    Report report;
+    ReconstructOptions options;
+    options.simplify = false;
+    const Reconstruction result = reconstruct(phantom.stack, options, report);
+    ASSERT_EQ(result.surfaces.size(), 1u);
+    ASSERT_TRUE(test::independent_problem(phantom.stack, result.surfaces[0]).empty());
+    ASSERT_EQ(result.slice_spacing_px, 8.0);
+    for (const double low : {8.0, 72.0}) {
+        double sum = 0.0;
+        std::size_t count = 0;
+        for (const Vec3& p : result.surfaces[0].mesh.positions) {
+            if (p.z > low + 1e-6 && p.z < low + 8.0 - 1e-6) {
+                sum += norm(p - Vec3{64.0, 64.0, 42.0}) - 40.0;
+                ++count;
+            }
+        }
+        ASSERT_GT(count, 10u) << "slab above z = " << low;
+        std::cout << "slab z = " << low << ".." << low + 8.0 << ": " << count
+                  << " vertices, mean signed distance " << sum / double(count) << " px\n";
+        EXPECT_LT(std::abs(sum / double(count)), 0.2) << "slab above z = " << low;
+    }
+}
+
 // The hollow sphere's cavity (radius 20 about (64, 64, 42), d = 4 px: holes on slices 6..15 at
 // z = 24..60) ends 2 px past its last holes, between slices. Its ends are domed like end caps:
 // the cavity's surface reaches toward its poles (z = 22 and 62), no farther than cap_reach d

@@ -347,6 +347,12 @@ private:
     /// Signed area (px^2) of region `region` of `slice`: its outer contours less its holes.
     double region_area(std::uint32_t slice, std::uint32_t region) const;
     double cap_height(std::uint32_t k, std::uint32_t region, bool top) const;
+    /// How fast the dome closing region `region` of slice k (above when `top`) draws in at its
+    /// rim, in px of signed distance per slab; 0 where no dome closes it (caps.cpp).
+    double dome_rim_slope(std::uint32_t k, std::uint32_t region, bool top) const;
+    /// Of slab k's slices (upper: k+1), the slope of the dome that closes the region whose
+    /// contour is nearest q, when that region ends there (lift.cpp); false otherwise.
+    bool end_slope(Vec2 q, std::uint32_t k, bool upper, double& slope) const;
     /// A dome's height (px) from its paraboloid's (cap_height; infinity: half a slab), at most
     /// options.cap_reach d: for end caps and for cavities that close (find_pockets).
     double dome_height(double height) const;
@@ -446,6 +452,14 @@ private:
     /// The closing cavities of slab `pockets_slab_` (pocket_t), found on first use.
     mutable std::int64_t pockets_slab_ = -1;
     mutable std::vector<Pocket> pockets_;
+    /// The regions of slab `ends_slab_`'s slices that end there (lower: ending below slice k,
+    /// upper: above slice k+1) and are domed: their rings and dome_rim_slope (end_slope).
+    struct EndRegion {
+        SegmentGrid rings;
+        double slope = 0.0;
+    };
+    mutable std::int64_t ends_slab_ = -1;
+    mutable std::array<std::vector<EndRegion>, 2> ends_;
     /// A stack-end wall vertex that leans (cap_region): its upright and its leaned position.
     struct Lean {
         std::uint32_t id = 0;
