@@ -8,6 +8,9 @@
 #include <iostream>
 #include <sstream>
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <nlohmann/json.hpp>
 
@@ -387,10 +390,12 @@ SceneInfo scene_info(const SliceStack& stack) {
 }
 
 /// Per surface: its mesh in patient LPS mm written to OUTPUT/meshes/, and its summary (checked
-/// in mm, with the levels of its model). Returns the scene objects, one per surface.
+/// in mm, with the levels of its model). Returns the scene objects, one per surface; the
+/// slice-space surfaces' meshes are freed as their world meshes are made (nothing after the
+/// export reads them).
 std::vector<SceneObject> write_surface_meshes(const BuildOptions& options,
                                               const SliceStack& stack,
-                                              const Reconstruction& result,
+                                              Reconstruction& result,
                                               const StagedOutputFolder& out,
                                               BuildSummary& summary,
                                               Report& report) {
@@ -410,6 +415,7 @@ std::vector<SceneObject> write_surface_meshes(const BuildOptions& options,
     parallel_for(n, options.threads, [&](std::size_t i) {
         SceneObject& object = scene[i];
         object.mesh = surface_to_world(stack, result.slice_spacing_px, result.surfaces[i].mesh);
+        result.surfaces[i].mesh = {};
         checks[i] = check_mesh(object.mesh);
         if (!object.mesh.triangles.empty()) {
             write_mesh(
@@ -445,9 +451,9 @@ int run_build(const BuildOptions& options) {
     const LodRequest lod_request = parse_lod_levels(options.lod_levels);
     Report report;
     TerminalProgress progress(options.output.quiet || options.output.json);
-    const BuildInput in = read_and_reconstruct(options, progress, report);
+    BuildInput in = read_and_reconstruct(options, progress, report);
     const SliceStack& stack = in.stack;
-    const Reconstruction& result = in.result;
+    Reconstruction& result = in.result;
     write_debug_pictures(options.debug_dir, stack, result, out);
 
     BuildSummary summary;
@@ -457,17 +463,50 @@ int run_build(const BuildOptions& options) {
     summary.objects = summarize_objects(stack, result, summary.contour_stats);
     summary.slice_spacing_px = result.slice_spacing_px;
     summary.output_dir = options.output_dir;
+    // note: the export reads the surfaces and models only: the contours, fields and medial
+    // axes go now (the peak memory of a build is in its export)
+    result.contours.slices = {};
+    result.contours.links = {};
+    result.fields = {};
+    result.medial_axes = {};
 
-    // Surfaces: one mesh file per object, the progressive scene, and the full-resolution scene
-    // as a plain glTF.
+    // Surfaces: one mesh file per object, the full-resolution scene as a plain glTF, and the
+    // progressive scene. Each holds only what it writes: the world meshes go once scene.glb is
+    // written, before the progressive scene's encodings are made.
     const auto export_start = Clock::now();
-    const std::vector<SceneObject> scene =
+    std::vector<SceneObject> scene =
         write_surface_meshes(options, stack, result, out, summary, report);
+    const SceneInfo info = scene_info(stack);
+    const std::filesystem::path scene_file = options.output_dir / "scene.glb";
+    std::vector<bool> has_triangles(scene.size());
+    for (std::size_t i = 0; i < scene.size(); ++i) {
+        has_triangles[i] = !scene[i].mesh.triangles.empty();
+    }
+    const bool any_triangles =
+        std::find(has_triangles.begin(), has_triangles.end(), true) != has_triangles.end();
+    if (any_triangles) {
+        if (options.scene_meshopt) {
+            detail::write_meshopt_scene(out.staged(scene_file), scene,
+                                        info);  // EXT_meshopt_compression
+        } else {
+            SceneGltfOptions scene_options;
+            scene_options.draco = !options.scene_uncompressed;
+            scene_options.threads = options.threads;
+            write_scene_gltf(out.staged(scene_file), scene, info, scene_options);
+        }
+        summary.scene = scene_file;
+    }
+    for (SceneObject& object : scene) {
+        object.mesh = {};
+    }
+#if defined(__GLIBC__)
+    malloc_trim(0);  // note: return the freed pages before the progressive scene's encodings
+#endif
     // The progressive scene: every object whose surface lies on a grid (all but those the
     // quantize stage had to leave unsnapped, which the report names).
     std::vector<ProgressiveObject> progressive;
     for (std::size_t i = 0; i < result.models.size() && i < scene.size(); ++i) {
-        if (scene[i].mesh.triangles.empty()) {
+        if (!has_triangles[i]) {
             continue;
         }
         if (!(result.models[i].grid_step > 0.0)) {
@@ -493,7 +532,6 @@ int run_build(const BuildOptions& options) {
         object.model = &result.models[i];
         progressive.push_back(object);
     }
-    const SceneInfo info = scene_info(stack);
     const SliceFrame frame = slice_frame(stack, result.slice_spacing_px);
     if (!progressive.empty()) {
         ModelSummary model;
@@ -509,22 +547,6 @@ int run_build(const BuildOptions& options) {
         summary.lods = write_lods(options, lod_request, progressive, frame, info, out);
     }
     const double export_seconds = seconds_since(export_start);
-
-    const std::filesystem::path scene_file = options.output_dir / "scene.glb";
-    const bool any_triangles = std::any_of(
-        scene.begin(), scene.end(), [](const SceneObject& o) { return !o.mesh.triangles.empty(); });
-    if (any_triangles) {
-        if (options.scene_meshopt) {
-            detail::write_meshopt_scene(out.staged(scene_file), scene,
-                                        info);  // EXT_meshopt_compression
-        } else {
-            SceneGltfOptions scene_options;
-            scene_options.draco = !options.scene_uncompressed;
-            scene_options.threads = options.threads;
-            write_scene_gltf(out.staged(scene_file), scene, info, scene_options);
-        }
-        summary.scene = scene_file;
-    }
 
     summary.timings.push_back({"input", in.input_seconds});
     for (const StageTiming& t : result.timings) {
