@@ -682,7 +682,10 @@ bool inside_ring(const std::vector<Vec2>& ring, Vec2 q) {
 /// slice plane: the slope a cubic height through slices k - 1 and k (k + 1 and k) takes at k
 /// where no slice continues the region (lift.cpp). 0 where dome_cap makes no dome: walls at the
 /// stack's end (cap_region's test), a region too small or too flat for one.
-double LabelSurface::dome_rim_slope(std::uint32_t k, std::uint32_t region, bool top) const {
+double LabelSurface::dome_rim_slope(std::uint32_t k,
+                                    std::uint32_t region,
+                                    bool top,
+                                    double* height_px) const {
     const double d = options_.slice_spacing_px;
     const DistanceField* f = field(k);
     if (level_z_ != nullptr || options_.cap_reach <= 0.0 || f == nullptr) {
@@ -715,6 +718,9 @@ double LabelSurface::dome_rim_slope(std::uint32_t k, std::uint32_t region, bool 
     });
     if (!(dmax > 1.0) || !(height >= d / 8.0)) {
         return 0.0;
+    }
+    if (height_px != nullptr) {
+        *height_px = height;
     }
     return d * dmax / (2.0 * height);
 }

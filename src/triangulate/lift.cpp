@@ -152,12 +152,26 @@ bool LabelSurface::end_slope(Vec2 q, std::uint32_t k, bool upper, double& slope)
                 // ends on the far side of the slab, continues into it
                 const bool ends_here = side == 0 ? !linked_down_[slice][r] && linked_up_[slice][r]
                                                  : !linked_up_[slice][r] && linked_down_[slice][r];
-                const double s = ends_here ? dome_rim_slope(slice, r, side == 1) : 0.0;
+                double height = 0.0;
+                const double s = ends_here ? dome_rim_slope(slice, r, side == 1, &height) : 0.0;
                 if (s > 0.0) {
                     std::vector<Ring> rings;
-                    for_each_region_ring(slice, r,
-                                         [&](const Ring& ring) { rings.push_back(ring); });
-                    ends.push_back({SegmentGrid(rings), s});
+                    double twice = 0.0;  // twice the signed area, and its first moments
+                    Vec2 moment{0.0, 0.0};
+                    for_each_region_ring(slice, r, [&](const Ring& ring) {
+                        rings.push_back(ring);
+                        for (std::size_t i = 0; i < ring.points.size(); ++i) {
+                            const Vec2 a = to_vec(ring.points[i]);
+                            const Vec2 b = to_vec(ring.points[(i + 1) % ring.points.size()]);
+                            const double w = a.x * b.y - b.x * a.y;
+                            twice += w;
+                            moment = moment + w * (a + b);
+                        }
+                    });
+                    const Vec2 centre =
+                        twice != 0.0 ? (1.0 / (3.0 * twice)) * moment : Vec2{0.0, 0.0};
+                    ends.push_back({SegmentGrid(rings), s, centre,
+                                    options_.slice_spacing_px / (2.0 * height)});
                 }
             }
         }
@@ -170,7 +184,18 @@ bool LabelSurface::end_slope(Vec2 q, std::uint32_t k, bool upper, double& slope)
     const double nearest = slab_rings_[upper ? 1 : 0].distance(q);
     for (const EndRegion& end : ends) {
         if (end.rings.distance(q) <= nearest) {
+            // An elongated region's dome draws in faster at its ends than at its sides: as a
+            // paraboloid whose sections are the contour scaled about its centre, by the support
+            // (p - centre) . n at the contour point p nearest q (n toward q) over 2 H.
             slope = end.slope;
+            Vec2 site;
+            if (closest_site(field(k + (upper ? 1 : 0)), q, site)) {
+                const Vec2 n = q - site;
+                const double length = std::sqrt(dot(n, n));
+                if (length > 0.25) {
+                    slope = std::max(slope, end.per_reach * dot(site - end.centre, n) / length);
+                }
+            }
             return true;
         }
     }

