@@ -9,8 +9,10 @@
 // degenerate triangles (exact check: find_self_intersections); and the same clusters of the
 // in-memory model must lie within the declared bound by the independent oracle
 // (test::measure_cut_error). And no group adds a fold (an edge over 90 degrees) to the part of
-// the surface it simplifies. The small inputs here; the torso, TotalSegmentator and a sample of
-// the FreeSurfer labels in large_data_cuts_test (`slow`).
+// the surface it simplifies. The small inputs here (the volcano also as planar contours, each
+// structure on its own stack as `strata build` reconstructs planar contours); the torso,
+// TotalSegmentator, the breast RTSTRUCT's contours and a sample of the FreeSurfer labels in
+// large_data_cuts_test (`slow`).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -27,10 +29,12 @@
 #include "core/report.h"
 #include "exporters/progressive_gltf.h"
 #include "exporters/read_progressive_gltf.h"
+#include "input/planar_contours.h"
 #include "input/read_slice_stack.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
 #include "pipeline/reconstruct.h"
+#include "pipeline/reconstruct_contours.h"
 #include "simplify/multires_dag.h"
 #include "support/cut_checks.h"
 #include "support/test_paths.h"
@@ -255,6 +259,24 @@ void run(const std::string& name, const SliceStack& stack, int random_cuts) {
               << " s\n";
 }
 
+/// Every structure of a planar contour file (RTSTRUCT, contour JSON) on its own stack, as
+/// reconstruct_contours builds it for `strata build` (scan-converted on the common frame's grid
+/// at the default pitch), checked as above in that stack's slice space.
+void run_contours(const std::string& name, const fs::path& path, int random_cuts) {
+    Report report;
+    const PlanarContours contours = clean_planar_contours(read_raw_contours(path.string(), ""),
+                                                          ContourCleaningOptions{}, report);
+    const ContourGridOptions grid;
+    const ContourFrame frame = contour_frame(contours, grid, report);
+    for (std::size_t i = 0; i < contours.objects.size(); ++i) {
+        const ContourStack roi =
+            contour_stack(contours.objects[i], frame.stack.label_table[i].value, frame, grid);
+        if (roi.stack.depth > 0) {
+            run(name + " " + contours.objects[i].name, roi.stack, random_cuts);
+        }
+    }
+}
+
 TEST(SharedDataCuts, PyradiomicsLungTumor) {
     run("pyradiomics_lung_tumor",
         read_stack(test::shared_data_dir() / "pyradiomics_lung_tumor/lung2_label.nrrd"), 6);
@@ -267,6 +289,12 @@ TEST(SharedDataCuts, PyradiomicsBrainTumor) {
 
 TEST(SharedDataCuts, TerrainVolcano) {
     run("terrain_volcano", read_stack(test::shared_data_dir() / "terrain_volcano"), 6);
+}
+
+// The same terrain as planar contours (contours.json, the strata contour JSON).
+TEST(SharedDataCuts, TerrainVolcanoContours) {
+    run_contours("terrain_volcano/contours.json",
+                 test::shared_data_dir() / "terrain_volcano/contours.json", 3);
 }
 
 // Folds on small models too: clusters of 256 triangles make many groups per surface.
@@ -309,6 +337,14 @@ TEST(SharedDataCuts, NiivueTorso) {
 TEST(SharedDataCuts, TotalSegmentatorAbdomen) {
     run("totalsegmentator_abdomen",
         read_stack(test::shared_data_dir() / "totalsegmentator_abdomen/example_seg.nii.gz"), 3);
+}
+
+// The breast RTSTRUCT's structures as contour JSON at the default pitch (0.58 mm): its leaned
+// stack-end walls once met only after snapping to the grid (settle_end_leans checks the snapped
+// positions since).
+TEST(SharedDataCuts, DicompylerBreastRtstructContours) {
+    run_contours("dicompyler_breast_rtstruct/contours.json",
+                 test::shared_data_dir() / "dicompyler_breast_rtstruct/contours.json", 1);
 }
 
 // Every 32nd of the FreeSurfer parcellation's 188 labels (all of them take an hour here; the
