@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 #include <iostream>
 #include <map>
 #include <numbers>
@@ -180,18 +181,35 @@ Reconstruction surfaces_on(const char* name, unsigned threads) {
     return reconstruct(phantom.stack, options, report);
 }
 
+/// `name`'s surfaces at 1 and `threads` threads are the same, vertex for vertex, with the same
+/// issues and counts.
+void expect_same_surfaces_on(const char* name, unsigned threads) {
+    SCOPED_TRACE(name);
+    const Reconstruction one = surfaces_on(name, 1);
+    const Reconstruction more = surfaces_on(name, threads);
+    ASSERT_EQ(one.surfaces.size(), more.surfaces.size());
+    for (std::size_t i = 0; i < one.surfaces.size(); ++i) {
+        const ObjectSurface& a = one.surfaces[i];
+        const ObjectSurface& b = more.surfaces[i];
+        EXPECT_TRUE(a.mesh.positions == b.mesh.positions);
+        EXPECT_TRUE(a.mesh.triangles == b.mesh.triangles);
+        EXPECT_EQ(a.slabs, b.slabs);
+        EXPECT_EQ(a.steiner_points, b.steiner_points);
+        EXPECT_EQ(a.topology_mismatches, b.topology_mismatches);
+        EXPECT_EQ(a.failed_slabs, b.failed_slabs);
+        ASSERT_EQ(a.issues.size(), b.issues.size());
+        for (std::size_t j = 0; j < a.issues.size(); ++j) {
+            EXPECT_EQ(a.issues[j].lower_slice, b.issues[j].lower_slice);
+            EXPECT_EQ(a.issues[j].what, b.issues[j].what);
+        }
+    }
+}
+
 // Same surfaces for any thread count and heap layout (a second run in the same process sees
 // other addresses): nothing may depend on the order of pointers.
 TEST(Surface, IdenticalForAnyThreadCount) {
     for (const char* name : {"t35_speckle_noise", "t33_many_components", "scene"}) {
-        SCOPED_TRACE(name);
-        const Reconstruction one = surfaces_on(name, 1);
-        const Reconstruction two = surfaces_on(name, 2);
-        ASSERT_EQ(one.surfaces.size(), two.surfaces.size());
-        for (std::size_t i = 0; i < one.surfaces.size(); ++i) {
-            EXPECT_TRUE(one.surfaces[i].mesh.positions == two.surfaces[i].mesh.positions);
-            EXPECT_TRUE(one.surfaces[i].mesh.triangles == two.surfaces[i].mesh.triangles);
-        }
+        expect_same_surfaces_on(name, 2);
     }
 }
 
@@ -200,26 +218,10 @@ TEST(Surface, IdenticalForAnyThreadCount) {
 // the same issues and counts, on stacks of many slabs with branches, holes and cavities.
 TEST(Surface, OneLabelsSlabsIdenticalOnAnyThreadCount) {
     for (const char* name : {"t06_spiral", "t16_n_to_m_tree", "t10_internal_cavity"}) {
-        SCOPED_TRACE(name);
-        const Reconstruction one = surfaces_on(name, 1);
-        const Reconstruction three = surfaces_on(name, 3);
-        ASSERT_EQ(one.surfaces.size(), three.surfaces.size());
-        for (std::size_t i = 0; i < one.surfaces.size(); ++i) {
-            const ObjectSurface& a = one.surfaces[i];
-            const ObjectSurface& b = three.surfaces[i];
-            EXPECT_GE(a.slabs, 4u);  // enough slabs for every thread to build some
-            EXPECT_TRUE(a.mesh.positions == b.mesh.positions);
-            EXPECT_TRUE(a.mesh.triangles == b.mesh.triangles);
-            EXPECT_EQ(a.slabs, b.slabs);
-            EXPECT_EQ(a.steiner_points, b.steiner_points);
-            EXPECT_EQ(a.topology_mismatches, b.topology_mismatches);
-            EXPECT_EQ(a.failed_slabs, b.failed_slabs);
-            ASSERT_EQ(a.issues.size(), b.issues.size());
-            for (std::size_t j = 0; j < a.issues.size(); ++j) {
-                EXPECT_EQ(a.issues[j].lower_slice, b.issues[j].lower_slice);
-                EXPECT_EQ(a.issues[j].what, b.issues[j].what);
-            }
+        for (const ObjectSurface& surface : surfaces_on(name, 1).surfaces) {
+            EXPECT_GE(surface.slabs, 4u) << name;  // enough slabs for every thread to build some
         }
+        expect_same_surfaces_on(name, 3);
     }
 }
 
@@ -363,16 +365,16 @@ TEST(Surface, EndDomeEnclosesTheCapVolume) {
     EXPECT_NEAR(volume / truth, 1.0, 0.06);
 }
 
-// The sphere at d = 8 px (radius 40 about z = 42: slices z = 8..80, poles at z = 2 and 82). In
-// the slabs next to the poles no slice lies beyond the end one; the cubic height takes its slope
-// there from the end dome, so the slab bends toward the pole as the sphere does. The Steiner
-// vertices inside those slabs lie on the sphere on average, within 0.2 px (by the analytic
-// distance |p - c| - 40); with the parabola through the last three slices instead, the top
-// slab's were 0.38 px inside.
-TEST(Surface, SlabsNextToThePolesBendAsTheDomesDo) {
+/// The phantom `name` at d = 8 px, reconstructed at full resolution: for each slab starting at
+/// one of `lows`, the mean of `signed_distance` (px, analytic, positive outside) over the
+/// vertices strictly inside the slab must be within 0.2 px of 0.
+template <class SignedDistance>
+void expect_end_slabs_on_the_phantom(const char* name,
+                                     std::initializer_list<double> lows,
+                                     const SignedDistance& signed_distance) {
     PhantomOptions phantom_options;
     phantom_options.slice_spacing_px = 8.0;
-    const Phantom phantom = make_phantom("sphere", phantom_options);
+    const Phantom phantom = make_phantom(name, phantom_options);
     Report report;
     ReconstructOptions options;
     options.simplify = false;
@@ -380,20 +382,32 @@ TEST(Surface, SlabsNextToThePolesBendAsTheDomesDo) {
     ASSERT_EQ(result.surfaces.size(), 1u);
     ASSERT_TRUE(test::independent_problem(phantom.stack, result.surfaces[0]).empty());
     ASSERT_EQ(result.slice_spacing_px, 8.0);
-    for (const double low : {8.0, 72.0}) {
+    for (const double low : lows) {
         double sum = 0.0;
         std::size_t count = 0;
         for (const Vec3& p : result.surfaces[0].mesh.positions) {
             if (p.z > low + 1e-6 && p.z < low + 8.0 - 1e-6) {
-                sum += norm(p - Vec3{64.0, 64.0, 42.0}) - 40.0;
+                sum += signed_distance(p);
                 ++count;
             }
         }
         ASSERT_GT(count, 10u) << "slab above z = " << low;
-        std::cout << "slab z = " << low << ".." << low + 8.0 << ": " << count
+        std::cout << name << " slab z = " << low << ".." << low + 8.0 << ": " << count
                   << " vertices, mean signed distance " << sum / double(count) << " px\n";
         EXPECT_LT(std::abs(sum / double(count)), 0.2) << "slab above z = " << low;
     }
+}
+
+// The sphere at d = 8 px (radius 40 about z = 42: slices z = 8..80, poles at z = 2 and 82). In
+// the slabs next to the poles no slice lies beyond the end one; the cubic height takes its slope
+// there from the end dome, so the slab bends toward the pole as the sphere does. The Steiner
+// vertices inside those slabs lie on the sphere on average, within 0.2 px (by the analytic
+// distance |p - c| - 40); with the parabola through the last three slices instead, the top
+// slab's were 0.38 px inside.
+TEST(Surface, SlabsNextToThePolesBendAsTheDomesDo) {
+    expect_end_slabs_on_the_phantom("sphere", {8.0, 72.0}, [](const Vec3& p) {
+        return norm(p - Vec3{64.0, 64.0, 42.0}) - 40.0;
+    });
 }
 
 // The torus lying on its side (centre-line circle of radius 30 in the x-z plane about z = 50,
@@ -403,31 +417,10 @@ TEST(Surface, SlabsNextToThePolesBendAsTheDomesDo) {
 // Steiner vertices of the end slabs lie within 0.2 px of the torus on average (by its analytic
 // distance); with the depth alone the top slab's were 0.28 px inside.
 TEST(Surface, SlabsNextToAStripsEndBendAsItsDomeDoes) {
-    PhantomOptions phantom_options;
-    phantom_options.slice_spacing_px = 8.0;
-    const Phantom phantom = make_phantom("torus", phantom_options);
-    Report report;
-    ReconstructOptions options;
-    options.simplify = false;
-    const Reconstruction result = reconstruct(phantom.stack, options, report);
-    ASSERT_EQ(result.surfaces.size(), 1u);
-    ASSERT_TRUE(test::independent_problem(phantom.stack, result.surfaces[0]).empty());
-    ASSERT_EQ(result.slice_spacing_px, 8.0);
-    for (const double low : {16.0, 80.0}) {
-        double sum = 0.0;
-        std::size_t count = 0;
-        for (const Vec3& p : result.surfaces[0].mesh.positions) {
-            if (p.z > low + 1e-6 && p.z < low + 8.0 - 1e-6) {
-                const Vec3 q = p - Vec3{64.0, 64.0, 50.0};
-                sum += std::hypot(std::hypot(q.x, q.z) - 30.0, q.y) - 10.0;
-                ++count;
-            }
-        }
-        ASSERT_GT(count, 10u) << "slab above z = " << low;
-        std::cout << "slab z = " << low << ".." << low + 8.0 << ": " << count
-                  << " vertices, mean signed distance " << sum / double(count) << " px\n";
-        EXPECT_LT(std::abs(sum / double(count)), 0.2) << "slab above z = " << low;
-    }
+    expect_end_slabs_on_the_phantom("torus", {16.0, 80.0}, [](const Vec3& p) {
+        const Vec3 q = p - Vec3{64.0, 64.0, 50.0};
+        return std::hypot(std::hypot(q.x, q.z) - 30.0, q.y) - 10.0;
+    });
 }
 
 // The hollow sphere's cavity (radius 20 about (64, 64, 42), d = 4 px: holes on slices 6..15 at
