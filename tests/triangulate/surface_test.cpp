@@ -327,21 +327,31 @@ TEST(Surface, DomedCapsReachPastTheEndSlicesTowardThePoles) {
     EXPECT_NEAR(hi, 82.0, 0.75);
 }
 
+/// The phantom `name` at d = 8 px, reconstructed at full resolution: one surface, checked
+/// against R independently.
+Reconstruction full_resolution_at_d8(const char* name) {
+    PhantomOptions phantom_options;
+    phantom_options.slice_spacing_px = 8.0;
+    const Phantom phantom = make_phantom(name, phantom_options);
+    Report report;
+    ReconstructOptions options;
+    options.simplify = false;
+    Reconstruction result = reconstruct(phantom.stack, options, report);
+    EXPECT_EQ(result.surfaces.size(), 1u);
+    EXPECT_EQ(result.slice_spacing_px, 8.0);
+    for (const ObjectSurface& surface : result.surfaces) {
+        EXPECT_TRUE(test::independent_problem(phantom.stack, surface).empty()) << name;
+    }
+    return result;
+}
+
 // The bench's sphere at d = 8 px (radius 40 about (64, 64, 42); its first slice at z = 8 is
 // 6 px from the pole): the dome below the first slice must enclose the true cap's volume,
 // pi h^2 (3R - h) / 3 with h = 6, within 6 %. Flat triangles over the dome's grid left 9.6 %
 // of it out; each dome vertex now rises by its triangles' shortfall against the dome.
 TEST(Surface, EndDomeEnclosesTheCapVolume) {
-    PhantomOptions phantom_options;
-    phantom_options.slice_spacing_px = 8.0;
-    const Phantom phantom = make_phantom("sphere", phantom_options);
-    Report report;
-    ReconstructOptions options;
-    options.simplify = false;
-    const Reconstruction result = reconstruct(phantom.stack, options, report);
+    const Reconstruction result = full_resolution_at_d8("sphere");
     ASSERT_EQ(result.surfaces.size(), 1u);
-    ASSERT_TRUE(test::independent_problem(phantom.stack, result.surfaces[0]).empty());
-    ASSERT_EQ(result.slice_spacing_px, 8.0);
     const TriMesh& mesh = result.surfaces[0].mesh;
     // Between the triangles below z = 8 and that plane: each triangle's prism, its projected
     // (signed) area times its centroid's depth.
@@ -372,16 +382,8 @@ template <class SignedDistance>
 void expect_end_slabs_on_the_phantom(const char* name,
                                      std::initializer_list<double> lows,
                                      const SignedDistance& signed_distance) {
-    PhantomOptions phantom_options;
-    phantom_options.slice_spacing_px = 8.0;
-    const Phantom phantom = make_phantom(name, phantom_options);
-    Report report;
-    ReconstructOptions options;
-    options.simplify = false;
-    const Reconstruction result = reconstruct(phantom.stack, options, report);
+    const Reconstruction result = full_resolution_at_d8(name);
     ASSERT_EQ(result.surfaces.size(), 1u);
-    ASSERT_TRUE(test::independent_problem(phantom.stack, result.surfaces[0]).empty());
-    ASSERT_EQ(result.slice_spacing_px, 8.0);
     for (const double low : lows) {
         double sum = 0.0;
         std::size_t count = 0;
