@@ -4,7 +4,7 @@
 //
 //   contour_accuracy --phantom NAME [--slice-spacing D] [--tolerance T] [--sigma S] [--sag F]
 //                    [--oracle-tolerance U] [--subdivide N] [--best]
-//                    [--estimators [--window W] [--adaptive A]]
+//                    [--estimators [--window W] [--adaptive A] [--neighbours K]]
 //
 // Traces and simplifies every slice of the phantom's stack as `strata build` does
 // (extract_contours; --tolerance T, default 0.5 px) and measures, in each slice plane z = k d px,
@@ -34,6 +34,12 @@
 //   fit best    (--estimators) the simplified vertices moved by the coordinate descent of `best`
 //               against the fit line (nearest of its segments) instead of the truth: a placement
 //               from the mask alone.
+//   fit3 line   (--neighbours K, K >= 2) the fit line's offsets along the same in-plane normal
+//               line on slices k-K..k+K (its crossing with their fit lines, within 1 + |j| d px)
+//               and a least-squares quadratic in z through them, taken at z = k d: the boundary
+//               from 2K+1 independent quantisations of the same surface (K-1, ... down to 2 where
+//               slices are missing or the line misses them; the slice's own fit line below);
+//   fit3 best   the simplified vertices moved by the coordinate descent of `best` against it.
 // --subdivide N splits each simplified edge into N at original points (by index) first.
 // Moves keep the slice-error guarantee: vertex by vertex (two passes) each goes the largest
 // fraction k / 8 of its move that keeps every original point within T of its two edges, on a
@@ -113,6 +119,7 @@ bool optimise = false;
 bool estimators = false;
 double window = 3.0;
 double adaptive = 0.0;
+int neighbours = 0;
 constexpr std::size_t kNoIndex = std::numeric_limits<std::size_t>::max();
 
 double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
@@ -218,6 +225,171 @@ std::vector<Vec2> best_positions(const Contour& c, std::vector<Vec2> at, F&& f, 
     return at;
 }
 
+/// Dense boundary estimate of one traced contour: per original segment its midpoint, the outward
+/// normal of the 7 segments around it, and the offset along it of a weighted least-squares
+/// quadratic through the segment midpoints within 2 sd px along the tangent (Gaussian weight of
+/// sd `window`; with `adaptive` > 0, sd adaptive / curvature from a first fit of sd 3, in
+/// [1.5, window]).
+struct FitLine {
+    std::uint16_t label = 0;
+    std::vector<Vec2> mid, normal;
+    std::vector<double> offset;
+    Vec2 at(std::size_t i) const { return mid[i] + offset[i] * normal[i]; }
+};
+
+FitLine fit_line_of(const Contour& c, double window_sd, double adaptive_factor) {
+    const std::vector<Vec2>& pts = c.points;
+    const std::size_t n = pts.size();
+    FitLine f;
+    f.label = c.label;
+    f.mid.resize(n);
+    f.normal.resize(n);
+    f.offset.resize(n);
+    std::vector<Vec2> tangent(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec2 a = pts[i], b = pts[(i + 1) % n];
+        f.mid[i] = 0.5 * (a + b);
+        tangent[i] = (1.0 / norm(b - a)) * (b - a);
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+        Vec2 t{0, 0};
+        for (int o = -3; o <= 3; ++o) {
+            t = t + tangent[(i + n + o) % n];
+        }
+        t = (1.0 / norm(t)) * t;
+        const Vec2 nn{t.y, -t.x};
+        f.normal[i] = nn;
+        // weighted least-squares s = a + b t + c t^2; returns {a, c}
+        const auto fit = [&](double sd) {
+            double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
+            double r0 = 0, r1 = 0, r2 = 0;
+            const int reach = static_cast<int>(std::ceil(4 * sd));
+            for (int o = -reach; o <= reach; ++o) {
+                const Vec2 q = f.mid[(i + n + o) % n] - f.mid[i];
+                const double tt = dot(q, t), ss = dot(q, nn);
+                if (std::abs(tt) > 2 * sd) {
+                    continue;
+                }
+                const double w = std::exp(-0.5 * tt * tt / (sd * sd));
+                const double t2 = tt * tt;
+                m00 += w;
+                m01 += w * tt;
+                m02 += w * t2;
+                m11 += w * t2;
+                m12 += w * t2 * tt;
+                m22 += w * t2 * t2;
+                r0 += w * ss;
+                r1 += w * ss * tt;
+                r2 += w * ss * t2;
+            }
+            const double det = m00 * (m11 * m22 - m12 * m12) - m01 * (m01 * m22 - m12 * m02) +
+                               m02 * (m01 * m12 - m11 * m02);
+            if (!(std::abs(det) > 1e-12)) {
+                return std::pair<double, double>{0.0, 0.0};
+            }
+            const double fa = (r0 * (m11 * m22 - m12 * m12) - m01 * (r1 * m22 - m12 * r2) +
+                               m02 * (r1 * m12 - m11 * r2)) /
+                              det;
+            const double fc = (m00 * (m11 * r2 - r1 * m12) - m01 * (m01 * r2 - r1 * m02) +
+                               r0 * (m01 * m12 - m11 * m02)) /
+                              det;
+            return std::pair<double, double>{fa, fc};
+        };
+        double sd = window_sd;
+        if (adaptive_factor > 0) {
+            const double curvature = std::abs(2.0 * fit(3.0).second);
+            sd = std::clamp(curvature > 0 ? adaptive_factor / curvature : window_sd, 1.5, window);
+        }
+        f.offset[i] = fit(sd).first;
+    }
+    return f;
+}
+
+/// Closed polylines bucketed by 1 px cells: signed distance (outside positive: right of a
+/// counter-clockwise outer polyline) and crossings of a line.
+class PolylineField {
+public:
+    void add(std::vector<Vec2> poly) {
+        const std::size_t p = polys_.size();
+        for (std::size_t i = 0; i < poly.size(); ++i) {
+            const Vec2 a = poly[i], b = poly[(i + 1) % poly.size()];
+            const int x0 = int(std::floor(std::min(a.x, b.x))),
+                      x1 = int(std::floor(std::max(a.x, b.x)));
+            const int y0 = int(std::floor(std::min(a.y, b.y))),
+                      y1 = int(std::floor(std::max(a.y, b.y)));
+            for (int y = y0; y <= y1; ++y) {
+                for (int x = x0; x <= x1; ++x) {
+                    cells_[{x, y}].push_back({p, i});
+                }
+            }
+        }
+        polys_.push_back(std::move(poly));
+    }
+    double signed_distance(Vec2 q) const {
+        double best = std::numeric_limits<double>::infinity(), sign = 1.0;
+        const int cx = int(std::floor(q.x)), cy = int(std::floor(q.y));
+        for (int dy = -2; dy <= 2; ++dy) {
+            for (int dx = -2; dx <= 2; ++dx) {
+                const auto it = cells_.find({cx + dx, cy + dy});
+                if (it == cells_.end()) {
+                    continue;
+                }
+                for (const auto& [p, i] : it->second) {
+                    const Vec2 a = polys_[p][i], b = polys_[p][(i + 1) % polys_[p].size()];
+                    const double dist = segment_distance(q, a, b);
+                    if (dist < best) {
+                        best = dist;
+                        sign = cross(b - a, q - a) <= 0 ? 1.0 : -1.0;
+                    }
+                }
+            }
+        }
+        return std::isfinite(best) ? sign * best : 2.0;
+    }
+    /// The crossing of the line o + s n (|s| <= reach) with the polylines nearest s = 0, if any.
+    bool crossing(Vec2 o, Vec2 n, double reach, double& s_out) const {
+        bool found = false;
+        std::map<std::pair<std::size_t, std::size_t>, bool> seen;
+        for (double s = -reach; s <= reach + 0.25; s += 0.25) {
+            const Vec2 q = o + s * n;
+            const int cx = int(std::floor(q.x)), cy = int(std::floor(q.y));
+            for (int dy = -1; dy <= 1; ++dy) {
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const auto it = cells_.find({cx + dx, cy + dy});
+                    if (it == cells_.end()) {
+                        continue;
+                    }
+                    for (const auto& key : it->second) {
+                        if (!seen.emplace(key, true).second) {
+                            continue;
+                        }
+                        const auto& poly = polys_[key.first];
+                        const Vec2 a = poly[key.second], b = poly[(key.second + 1) % poly.size()];
+                        // o + s n = a + u (b - a)
+                        const Vec2 e = b - a;
+                        const double den = cross(n, e);
+                        if (std::abs(den) < 1e-12) {
+                            continue;
+                        }
+                        const Vec2 w = a - o;
+                        const double ss = cross(w, e) / den, u = cross(w, n) / den;
+                        if (u >= 0 && u < 1 && std::abs(ss) <= reach &&
+                            (!found || std::abs(ss) < std::abs(s_out))) {
+                            s_out = ss;
+                            found = true;
+                        }
+                    }
+                }
+            }
+        }
+        return found;
+    }
+
+private:
+    std::vector<std::vector<Vec2>> polys_;
+    std::map<std::pair<int, int>, std::vector<std::pair<std::size_t, std::size_t>>> cells_;
+};
+
 int run(int argc, char** argv) {
     std::string name;
     double d = 0.0;
@@ -232,6 +404,8 @@ int run(int argc, char** argv) {
             d = std::stod(argv[++i]);
         } else if (a == "--oracle-tolerance" && i + 1 < argc) {
             free_tol = std::stod(argv[++i]);
+        } else if (a == "--neighbours" && i + 1 < argc) {
+            neighbours = std::stoi(argv[++i]);
         } else if (a == "--estimators") {
             estimators = true;
         } else if (a == "--adaptive" && i + 1 < argc) {
@@ -252,7 +426,7 @@ int run(int argc, char** argv) {
             std::cerr
                 << "usage: contour_accuracy --phantom NAME [--slice-spacing D] [--tolerance T]\n"
                    "  [--sigma S] [--sag F] [--oracle-tolerance U] [--subdivide N] [--best]\n"
-                   "  [--estimators [--window W] [--adaptive A]]\n";
+                   "  [--estimators [--window W] [--adaptive A] [--neighbours K]]\n";
             return 2;
         }
     }
@@ -266,7 +440,21 @@ int run(int argc, char** argv) {
     co.tolerance_px = tolerance;
     const SliceContours sc = extract_contours(st, co);
     Stats stair, simp, iso, oracle, iso_sag, oracle_sag, optimised, iso_optimised, iso_line,
-        fit_line, fit_optimised;
+        fit_line, fit_optimised, fit3_line, fit3_optimised;
+    std::size_t fit3_points = 0, fit3_alone = 0;
+    // --neighbours K: every slice's fit lines, for the estimate across slices k-K..k+K
+    std::vector<std::vector<FitLine>> fits(neighbours > 0 ? sc.slices.size() : 0);
+    std::vector<std::map<std::uint16_t, PolylineField>> fields(fits.size());
+    for (std::size_t k = 0; k < fits.size(); ++k) {
+        for (const Contour& c : sc.slices[k].contours) {
+            fits[k].push_back(fit_line_of(c, window, adaptive));
+            std::vector<Vec2> poly(c.points.size());
+            for (std::size_t i = 0; i < poly.size(); ++i) {
+                poly[i] = fits[k].back().at(i);
+            }
+            fields[k][c.label].add(std::move(poly));
+        }
+    }
     std::size_t vertices = 0, points = 0, far_points = 0;
     const int W = static_cast<int>(st.width), H = static_cast<int>(st.height);
     const int r = static_cast<int>(std::ceil(3 * sigma));
@@ -430,111 +618,33 @@ int run(int argc, char** argv) {
                 return out;
             };
             const auto iso_f = [&](Vec2 q) { return 0.5 - value(q); };
+            // a boundary estimate (closed polyline) and the simplified vertices optimised against
+            // it (its signed distance), from where they are
+            const auto measure_estimate = [&](const std::vector<Vec2>& line, Stats& on_line,
+                                              Stats& placed) {
+                sample_polygon(p, c.label, z, line, on_line);
+                PolylineField field;
+                field.add(line);
+                sample_polygon(
+                    p, c.label, z,
+                    best_positions(
+                        c, at, [&](Vec2 q) { return field.signed_distance(q); }, sc.tolerance_px),
+                    placed);
+            };
             if (estimators) {
                 // Dense boundary estimates, one point per original segment midpoint: moved along
-                // the segment's normal to the iso-line, or to a weighted least-squares quadratic
-                // through the segment midpoints within 2 * window px (Gaussian weight of sd
-                // window along the tangent).
-                const std::vector<Vec2>& pts = traced.points;
-                const std::size_t n = pts.size();
-                std::vector<Vec2> mids(n), tangent(n);
-                for (std::size_t i = 0; i < n; ++i) {
-                    const Vec2 a = pts[i], b = pts[(i + 1) % n];
-                    mids[i] = 0.5 * (a + b);
-                    tangent[i] = (1.0 / norm(b - a)) * (b - a);
-                }
+                // the normal of the 7 segments around it to the iso-line, or to the fit line.
+                const FitLine f = fit_line_of(traced, window, adaptive);
+                const std::size_t n = f.mid.size();
                 std::vector<Vec2> on_iso(n), on_fit(n);
                 for (std::size_t i = 0; i < n; ++i) {
-                    // smoothed tangent over +-3 segments
-                    Vec2 t{0, 0};
-                    for (int o = -3; o <= 3; ++o) {
-                        t = t + tangent[(i + n + o) % n];
-                    }
-                    t = (1.0 / norm(t)) * t;
-                    const Vec2 nn{t.y, -t.x};
-                    on_iso[i] =
-                        mids[i] + root([&](double s0) { return iso_f(mids[i] + s0 * nn); }) * nn;
-                    // weighted least-squares s = a + b t + c t^2; returns {a, c}
-                    const auto fit = [&](double sd) {
-                        double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
-                        double r0 = 0, r1 = 0, r2 = 0;
-                        const int reach = static_cast<int>(std::ceil(4 * sd));
-                        for (int o = -reach; o <= reach; ++o) {
-                            const Vec2 q = mids[(i + n + o) % n] - mids[i];
-                            const double tt = dot(q, t), ss = dot(q, nn);
-                            if (std::abs(tt) > 2 * sd) {
-                                continue;
-                            }
-                            const double w = std::exp(-0.5 * tt * tt / (sd * sd));
-                            const double t2 = tt * tt;
-                            m00 += w;
-                            m01 += w * tt;
-                            m02 += w * t2;
-                            m11 += w * t2;
-                            m12 += w * t2 * tt;
-                            m22 += w * t2 * t2;
-                            r0 += w * ss;
-                            r1 += w * ss * tt;
-                            r2 += w * ss * t2;
-                        }
-                        const double det = m00 * (m11 * m22 - m12 * m12) -
-                                           m01 * (m01 * m22 - m12 * m02) +
-                                           m02 * (m01 * m12 - m11 * m02);
-                        if (!(std::abs(det) > 1e-12)) {
-                            return std::pair<double, double>{0.0, 0.0};
-                        }
-                        const double fa =
-                            (r0 * (m11 * m22 - m12 * m12) - m01 * (r1 * m22 - m12 * r2) +
-                             m02 * (r1 * m12 - m11 * r2)) /
-                            det;
-                        const double fc =
-                            (m00 * (m11 * r2 - r1 * m12) - m01 * (m01 * r2 - r1 * m02) +
-                             r0 * (m01 * m12 - m11 * m02)) /
-                            det;
-                        return std::pair<double, double>{fa, fc};
-                    };
-                    double sd = window;
-                    if (adaptive > 0) {
-                        // a window of `adaptive` times the local radius (from a fit of sd 3)
-                        const double curvature = std::abs(2.0 * fit(3.0).second);
-                        sd = std::clamp(curvature > 0 ? adaptive / curvature : window, 1.5, window);
-                    }
-                    const double a0 = fit(sd).first;
-                    on_fit[i] = mids[i] + a0 * nn;
+                    on_iso[i] = f.mid[i] + root([&](double s0) {
+                                               return iso_f(f.mid[i] + s0 * f.normal[i]);
+                                           }) * f.normal[i];
+                    on_fit[i] = f.at(i);
                 }
                 sample_polygon(p, c.label, z, on_iso, iso_line);
-                sample_polygon(p, c.label, z, on_fit, fit_line);
-                // vertices optimised against the fit line (its signed distance: nearest of its
-                // segments, bucketed by 1 px cells), from the simplified vertices
-                std::map<std::pair<int, int>, std::vector<std::size_t>> cells;
-                for (std::size_t i = 0; i < n; ++i) {
-                    const Vec2 mid = 0.5 * (on_fit[i] + on_fit[(i + 1) % n]);
-                    cells[{int(std::floor(mid.x)), int(std::floor(mid.y))}].push_back(i);
-                }
-                const auto fit_f = [&](Vec2 q) {
-                    double best_d = std::numeric_limits<double>::infinity(), sign = 1.0;
-                    const int cx = int(std::floor(q.x)), cy = int(std::floor(q.y));
-                    for (int dy = -2; dy <= 2; ++dy) {
-                        for (int dx = -2; dx <= 2; ++dx) {
-                            const auto it = cells.find({cx + dx, cy + dy});
-                            if (it == cells.end()) {
-                                continue;
-                            }
-                            for (const std::size_t i : it->second) {
-                                const Vec2 a = on_fit[i], b = on_fit[(i + 1) % n];
-                                const double dist = segment_distance(q, a, b);
-                                if (dist < best_d) {
-                                    best_d = dist;
-                                    // outside (positive) on the right of the segment
-                                    sign = cross(b - a, q - a) <= 0 ? 1.0 : -1.0;
-                                }
-                            }
-                        }
-                    }
-                    return std::isfinite(best_d) ? sign * best_d : 2.0;
-                };
-                sample_polygon(p, c.label, z, best_positions(c, at, fit_f, sc.tolerance_px),
-                               fit_optimised);
+                measure_estimate(on_fit, fit_line, fit_optimised);
             }
             const auto true_f = [&](Vec2 q) { return truth(p, c.label, {q.x, q.y, z}); };
             sample_polygon(p, c.label, z, moved(c, normal, sagged(off_iso, iso_f), sc.tolerance_px),
@@ -549,6 +659,59 @@ int run(int argc, char** argv) {
                     moved(c, normal, sagged(off_iso, iso_f), sc.tolerance_px);
                 sample_polygon(p, c.label, z, best_positions(c, from_iso, iso_f, sc.tolerance_px),
                                iso_optimised);
+            }
+            if (neighbours > 0) {
+                // the fit line's offset along each normal on slices k-K..k+K (the crossing of
+                // the same in-plane line with their fit lines), and a least-squares quadratic in
+                // z through them at z = k d: the boundary from 2K+1 independent quantisations
+                const FitLine& own = fits[k][std::size_t(&traced - sc.slices[k].contours.data())];
+                const std::size_t n = own.mid.size();
+                std::vector<Vec2> on_fit3(n);
+                for (std::size_t i = 0; i < n; ++i) {
+                    double estimate = own.offset[i];
+                    ++fit3_points;
+                    for (int kk = neighbours; kk >= 2; --kk) {
+                        double sum = 0.0, s2 = 0.0, s4 = 0.0, num = 0.0;
+                        bool all = true;
+                        std::vector<double> at_j(2 * kk + 1);
+                        for (int j = -kk; j <= kk && all; ++j) {
+                            const int slice = int(k) + j;
+                            if (j == 0) {
+                                at_j[kk] = own.offset[i];
+                                continue;
+                            }
+                            double s0 = 0.0;
+                            const auto it = slice >= 0 && slice < int(fields.size())
+                                                ? fields[slice].find(c.label)
+                                                : fields[0].end();
+                            all = slice >= 0 && slice < int(fields.size()) &&
+                                  it != fields[slice].end() &&
+                                  it->second.crossing(own.mid[i], own.normal[i],
+                                                      1.0 + std::abs(j) * p.slice_spacing_px, s0);
+                            at_j[j + kk] = s0;
+                        }
+                        if (!all) {
+                            continue;
+                        }
+                        for (int j = -kk; j <= kk; ++j) {
+                            s2 += j * j;
+                            s4 += double(j) * j * j * j;
+                        }
+                        const double nn = 2 * kk + 1, den = nn * s4 - s2 * s2;
+                        for (int j = -kk; j <= kk; ++j) {
+                            const double w = (s4 - s2 * j * j) / den;
+                            num += w * at_j[j + kk];
+                            sum += w;
+                        }
+                        estimate = num / sum;
+                        break;
+                    }
+                    if (estimate == own.offset[i]) {
+                        ++fit3_alone;
+                    }
+                    on_fit3[i] = own.mid[i] + estimate * own.normal[i];
+                }
+                measure_estimate(on_fit3, fit3_line, fit3_optimised);
             }
             vertices += m;
         }
@@ -568,6 +731,12 @@ int run(int argc, char** argv) {
         row("iso line", iso_line);
         row("fit line", fit_line);
         row("fit best", fit_optimised);
+    }
+    if (neighbours > 0) {
+        row("fit3 line", fit3_line);
+        row("fit3 best", fit3_optimised);
+        std::printf("fit3: %zu of %zu boundary points from their own slice alone\n", fit3_alone,
+                    fit3_points);
     }
     if (optimise) {
         row("best", optimised);
