@@ -126,6 +126,30 @@ Vec3 normal_of(const Vec3& a, const Vec3& b, const Vec3& c) {
     return cross(b - a, c - a);
 }
 
+/// Squared distance from p to the bounding box of t (0 inside it): no more than p's squared
+/// distance to t.
+double box_distance2(const Vec3& p, const std::array<Vec3, 3>& t) {
+    auto gap = [&](double c, double a, double b, double d) {
+        const double lo = std::min({a, b, d});
+        const double hi = std::max({a, b, d});
+        return c < lo ? lo - c : (c > hi ? c - hi : 0.0);
+    };
+    const double gx = gap(p.x, t[0].x, t[1].x, t[2].x);
+    const double gy = gap(p.y, t[0].y, t[1].y, t[2].y);
+    const double gz = gap(p.z, t[0].z, t[1].z, t[2].z);
+    return gx * gx + gy * gy + gz * gz;
+}
+
+/// True when piece_distance_px(piece, t, ...) is certainly at least `bound`: the piece's first
+/// end is farther than that from t's box, and that distance bounds its own from below.
+/// note: a margin far above the rounding of either distance, so the filter only skips reads
+/// whose result could not have been below `bound`.
+bool certainly_not_nearer(const ContourPiece& piece, const std::array<Vec3, 3>& t, double bound) {
+    const double margin = bound * (1.0 + 1e-9) + 1e-9;
+    return margin < std::numeric_limits<double>::infinity() &&
+           box_distance2(piece.a, t) > margin * margin;
+}
+
 /// Relative error allowed for the float filter ahead of the exact intersection tests (Shewchuk's
 /// static bounds for the same orientation determinants are below 1e-15).
 constexpr double kFilterError = 1e-12;
@@ -556,13 +580,19 @@ private:
                       std::size_t limit = std::numeric_limits<std::size_t>::max()) const {
         std::vector<FoldTriangle>& star = fold_star_;
         star.clear();
-        for (const std::uint32_t t : vertex_triangles_[u]) {
-            if (after && contains(t, v)) {
+        refresh_star(u);
+        const std::vector<std::uint32_t>& triangles = vertex_triangles_[u];
+        for (std::size_t i = 0; i < triangles.size(); ++i) {
+            const std::uint32_t t = triangles[i];
+            if (!after) {
+                star.push_back({triangles_[t], star_cache_.normals[i]});
+                continue;
+            }
+            if (contains(t, v)) {
                 continue;  // removed by the collapse
             }
-            const Tri ids = after ? local_moved(t, u, v) : triangles_[t];
-            const std::array<Vec3, 3> c = after ? moved(t, u, v) : corners(t);
-            star.push_back({ids, normal_of(c[0], c[1], c[2])});
+            const std::array<Vec3, 3> c = moved(t, u, v);
+            star.push_back({local_moved(t, u, v), normal_of(c[0], c[1], c[2])});
         }
         auto has = [](const Tri& ids, std::uint32_t w) {
             return ids[0] == w || ids[1] == w || ids[2] == w;
@@ -586,16 +616,8 @@ private:
                     }
                 }
                 Vec3 beside;
-                if (other == nullptr) {
-                    for (const std::uint32_t t : vertex_triangles_[a]) {
-                        const Tri& o = triangles_[t];
-                        if (!has(o, u) && has(o, b)) {
-                            const std::array<Vec3, 3> c = corners(t);
-                            beside = normal_of(c[0], c[1], c[2]);
-                            other = &beside;
-                            break;
-                        }
-                    }
+                if (other == nullptr && beside_normal(u, a, b, beside)) {
+                    other = &beside;
                 }
                 if (other != nullptr && dot(star[i].normal, *other) < 0.0 && ++count > limit) {
                     return count;
@@ -603,6 +625,54 @@ private:
             }
         }
         return count;
+    }
+
+    /// The star of u as it is now (until the next collapse): each triangle's normal and its
+    /// length, and the triangles beside it met so far (see beside_normal).
+    /// note: every candidate of u reads the same; cost() and folds() ask for them once per
+    /// candidate.
+    void refresh_star(std::uint32_t u) const {
+        StarCache& s = star_cache_;
+        if (s.vertex == u && s.collapses == collapses_) {
+            return;
+        }
+        s.vertex = u;
+        s.collapses = collapses_;
+        s.normals.clear();
+        s.lengths.clear();
+        s.beside.clear();
+        for (const std::uint32_t t : vertex_triangles_[u]) {
+            const std::array<Vec3, 3> c = corners(t);
+            s.normals.push_back(normal_of(c[0], c[1], c[2]));
+            s.lengths.push_back(norm(s.normals.back()));
+        }
+    }
+
+    /// The normal of the first triangle of a's star that has edge ab and not u, into `normal`;
+    /// false when there is none. Read once per (a, b) between two collapses.
+    bool beside_normal(std::uint32_t u, std::uint32_t a, std::uint32_t b, Vec3& normal) const {
+        refresh_star(u);
+        for (const Beside& e : star_cache_.beside) {
+            if (e.a == a && e.b == b) {
+                normal = e.normal;
+                return e.found;
+            }
+        }
+        Beside e{a, b, false, {}};
+        for (const std::uint32_t t : vertex_triangles_[a]) {
+            const Tri& o = triangles_[t];
+            const bool has_u = o[0] == u || o[1] == u || o[2] == u;
+            const bool has_b = o[0] == b || o[1] == b || o[2] == b;
+            if (!has_u && has_b) {
+                const std::array<Vec3, 3> c = corners(t);
+                e.normal = normal_of(c[0], c[1], c[2]);
+                e.found = true;
+                break;
+            }
+        }
+        star_cache_.beside.push_back(e);
+        normal = e.normal;
+        return e.found;
     }
 
     /// True when collapsing u onto v adds a fold.
@@ -625,19 +695,20 @@ private:
         std::vector<std::uint32_t>& own = moved_index_;  // per star triangle, kNone: removed
         own.clear();
         const std::vector<std::uint32_t>& star = vertex_triangles_[u];
+        refresh_star(u);
         // note: every fold is ruled out before any error is read (folds are common, and the
         // errors are the expensive part).
-        for (const std::uint32_t t : star) {
+        for (std::size_t i = 0; i < star.size(); ++i) {
+            const std::uint32_t t = star[i];
             if (contains(t, v)) {
                 own.push_back(kNone);
                 continue;
             }
             own.push_back(std::uint32_t(moved_corners.size()));
-            const std::array<Vec3, 3> before = corners(t);
             const std::array<Vec3, 3> after = moved(t, u, v);
-            const Vec3 n0 = normal_of(before[0], before[1], before[2]);
+            const Vec3& n0 = star_cache_.normals[i];
             const Vec3 n1 = normal_of(after[0], after[1], after[2]);
-            const double l0 = norm(n0), l1 = norm(n1);
+            const double l0 = star_cache_.lengths[i], l1 = norm(n1);
             if (!(l1 > 0.0) || !(l0 > 0.0)) {
                 return std::nullopt;
             }
@@ -687,7 +758,7 @@ private:
                     best = piece_distance_px(piece, moved_corners[own[i]], best, reached);
                 }
                 for (std::uint32_t m = 0; m < moved_corners.size() && best > reached; ++m) {
-                    if (m != own[i]) {
+                    if (m != own[i] && !certainly_not_nearer(piece, moved_corners[m], best)) {
                         best = std::min(best,
                                         piece_distance_px(piece, moved_corners[m], best, reached));
                     }
@@ -899,7 +970,11 @@ private:
             }
             if (best > std::max(a.distance, floor)) {
                 for (const std::uint32_t t : moved_ids) {
-                    const double d = piece_distance_px(piece, corners(t), best, floor);
+                    const std::array<Vec3, 3> c = corners(t);
+                    if (certainly_not_nearer(piece, c, best)) {
+                        continue;
+                    }
+                    const double d = piece_distance_px(piece, c, best, floor);
                     if (d < best) {
                         best = d;
                         to = t;
@@ -946,6 +1021,22 @@ private:
         Vec3 normal;
     };
     mutable std::vector<FoldTriangle> fold_star_;  ///< scratch of folds()
+    /// The triangle beside edge ab of u's star (see beside_normal).
+    struct Beside {
+        std::uint32_t a = kNone;
+        std::uint32_t b = kNone;
+        bool found = false;
+        Vec3 normal;
+    };
+    /// What refresh_star() keeps of `vertex`'s star, valid while `collapses` is collapses_.
+    struct StarCache {
+        std::uint32_t vertex = kNone;
+        std::size_t collapses = 0;
+        std::vector<Vec3> normals;    ///< per star triangle, in vertex_triangles_ order
+        std::vector<double> lengths;  ///< their lengths
+        std::vector<Beside> beside;
+    };
+    mutable StarCache star_cache_;
     /// Collapses applied so far, and the fold count before collapsing `vertex` at `collapses`.
     std::size_t collapses_ = 0;
     struct FoldsBefore {
