@@ -39,7 +39,10 @@
 //               and a least-squares quadratic in z through them, taken at z = k d: the boundary
 //               from 2K+1 independent quantisations of the same surface (K-1, ... down to 2 where
 //               slices are missing or the line misses them; the slice's own fit line below);
-//   fit3 best   the simplified vertices moved by the coordinate descent of `best` against it.
+//   fit3 best   the simplified vertices moved by the coordinate descent of `best` against it;
+//   fit3 grid   the same descent over the contour's own points instead (each vertex to an original
+//               point within 8 of it along the contour): what choosing among the half-pixel grid
+//               positions of today's vertices can do.
 // --subdivide N splits each simplified edge into N at original points (by index) first.
 // Moves keep the slice-error guarantee: vertex by vertex (two passes) each goes the largest
 // fraction k / 8 of its move that keeps every original point within T of its two edges, on a
@@ -196,6 +199,47 @@ double edge_cost(Vec2 a, Vec2 b, F&& f) {
     return sum * len / n;
 }
 
+/// The same on the contour's own points: each simplified vertex in turn (but the first) moves
+/// to the original point within `reach` of it along the contour (not past its neighbours) that
+/// least costs its two edges against `f` while every original point stays within `tol` of
+/// them; 3 passes. What choosing among today's vertex positions (pixel corners, edge midpoints)
+/// can do without placing vertices off the half-pixel grid.
+template <class F>
+std::vector<Vec2> grid_positions(Contour c, F&& f, double tol, std::uint32_t reach) {
+    const std::size_t m = c.simplified.size();
+    const auto n = static_cast<std::uint32_t>(c.points.size());
+    std::vector<Vec2> at(m);
+    const auto sync = [&] {
+        for (std::size_t v = 0; v < m; ++v) {
+            at[v] = c.points[c.simplified[v]];
+        }
+    };
+    sync();
+    for (int pass = 0; pass < 3 && m >= 3; ++pass) {
+        for (std::size_t v = 1; v < m; ++v) {
+            const std::size_t u = v - 1, w = (v + 1) % m;
+            const std::uint32_t here = c.simplified[v];
+            const std::uint32_t lo = c.simplified[u] + 1;
+            const std::uint32_t hi = w == 0 ? n - 1 : c.simplified[w] - 1;
+            double cost = edge_cost(at[u], at[v], f) + edge_cost(at[v], at[w], f);
+            std::uint32_t chosen = here;
+            for (std::uint32_t i = here > lo + reach ? here - reach : lo;
+                 i <= std::min(hi, here + reach); ++i) {
+                c.simplified[v] = i;
+                at[v] = c.points[i];
+                const double candidate = edge_cost(at[u], at[v], f) + edge_cost(at[v], at[w], f);
+                if (candidate < cost && placed_ok(c, at, u, tol) && placed_ok(c, at, v, tol)) {
+                    cost = candidate;
+                    chosen = i;
+                }
+            }
+            c.simplified[v] = chosen;
+            at[v] = c.points[chosen];
+        }
+    }
+    return at;
+}
+
 /// Coordinate descent from `start`: each vertex in turn goes to the point of the 1/8 px grid
 /// within 1/2 px of where it is that least costs its two edges (edge_cost of the true surface's
 /// distance `f`) while every original point stays within `tol` of them; 3 passes.
@@ -298,7 +342,8 @@ FitLine fit_line_of(const Contour& c, double window_sd, double adaptive_factor) 
         double sd = window_sd;
         if (adaptive_factor > 0) {
             const double curvature = std::abs(2.0 * fit(3.0).second);
-            sd = std::clamp(curvature > 0 ? adaptive_factor / curvature : window_sd, 1.5, window);
+            sd =
+                std::clamp(curvature > 0 ? adaptive_factor / curvature : window_sd, 1.5, window_sd);
         }
         f.offset[i] = fit(sd).first;
     }
@@ -440,7 +485,7 @@ int run(int argc, char** argv) {
     co.tolerance_px = tolerance;
     const SliceContours sc = extract_contours(st, co);
     Stats stair, simp, iso, oracle, iso_sag, oracle_sag, optimised, iso_optimised, iso_line,
-        fit_line, fit_optimised, fit3_line, fit3_optimised;
+        fit_line, fit_optimised, fit3_line, fit3_optimised, fit3_grid;
     std::size_t fit3_points = 0, fit3_alone = 0;
     // --neighbours K: every slice's fit lines, for the estimate across slices k-K..k+K
     std::vector<std::vector<FitLine>> fits(neighbours > 0 ? sc.slices.size() : 0);
@@ -625,6 +670,13 @@ int run(int argc, char** argv) {
                 sample_polygon(p, c.label, z, line, on_line);
                 PolylineField field;
                 field.add(line);
+                if (&placed == &fit3_optimised) {
+                    sample_polygon(p, c.label, z,
+                                   grid_positions(
+                                       c, [&](Vec2 q) { return field.signed_distance(q); },
+                                       sc.tolerance_px, 8),
+                                   fit3_grid);
+                }
                 sample_polygon(
                     p, c.label, z,
                     best_positions(
@@ -735,6 +787,7 @@ int run(int argc, char** argv) {
     if (neighbours > 0) {
         row("fit3 line", fit3_line);
         row("fit3 best", fit3_optimised);
+        row("fit3 grid", fit3_grid);
         std::printf("fit3: %zu of %zu boundary points from their own slice alone\n", fit3_alone,
                     fit3_points);
     }
