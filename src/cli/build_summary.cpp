@@ -61,19 +61,10 @@ std::vector<ObjectSummary> summarize_objects(const SliceStack& stack,
                 break;
             }
         }
-        for (const MedialAxis& axis : result.medial_axes) {
-            for (const MedialCurve& curve : axis.curves) {
-                if (curve.label == label.value) {
-                    ++o.medial.curves;
-                    o.medial.points += curve.points.size();
-                }
-            }
-            for (const UnmatchedRun& run : axis.unmatched) {
-                const auto& set = result.contours.slices[axis.lower_slice + (run.on_upper ? 1 : 0)];
-                if (set.contours[run.contour].label == label.value) {
-                    ++o.medial.unmatched_runs;
-                    o.medial.unmatched_points += run.count;
-                }
+        for (const MedialCounts& c : result.medial_counts) {
+            if (c.label == label.value) {
+                o.medial = {c.curves, c.points, c.unmatched_runs, c.unmatched_points};
+                break;
             }
         }
         objects.push_back(o);

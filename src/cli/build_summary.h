@@ -148,7 +148,7 @@ struct BuildSummary {
 };
 
 /// Per label of the stack's table: its contour statistics (from `contour_stats`, sorted by
-/// label) and its medial axes.
+/// label) and its medial axes' counts (Reconstruction::medial_counts).
 std::vector<ObjectSummary> summarize_objects(const SliceStack& stack,
                                              const Reconstruction& result,
                                              const std::vector<LabelContourStats>& contour_stats);

@@ -321,6 +321,7 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
     }
     reconstruct_options.progress = progress.callback();
     reconstruct_options.keep_fields = !options.debug_dir.empty();  // note: debug pictures read them
+    reconstruct_options.keep_medial_axes = reconstruct_options.keep_fields;
     BuildInput in;
     if (!options.input.empty() && is_planar_contour_file(options.input)) {
         // Planar contours (RTSTRUCT, contour JSON): one reconstruction per structure, gathered

@@ -498,4 +498,34 @@ std::vector<MedialAxis> extract_medial_axes(const SliceContours& contours,
     return axes;
 }
 
+void count_medial_axes(const std::vector<MedialAxis>& axes,
+                       const SliceContours& contours,
+                       std::vector<MedialCounts>& counts) {
+    auto entry = [&counts](std::uint16_t label) -> MedialCounts& {
+        const auto it =
+            std::lower_bound(counts.begin(), counts.end(), label,
+                             [](const MedialCounts& c, std::uint16_t l) { return c.label < l; });
+        if (it != counts.end() && it->label == label) {
+            return *it;
+        }
+        MedialCounts c;
+        c.label = label;
+        return *counts.insert(it, c);
+    };
+    for (const MedialAxis& axis : axes) {
+        for (const MedialCurve& curve : axis.curves) {
+            MedialCounts& c = entry(curve.label);
+            ++c.curves;
+            c.points += curve.points.size();
+        }
+        for (const UnmatchedRun& run : axis.unmatched) {
+            const SliceContourSet& set =
+                contours.slices.at(axis.lower_slice + (run.on_upper ? 1 : 0));
+            MedialCounts& c = entry(set.contours.at(run.contour).label);
+            ++c.unmatched_runs;
+            c.unmatched_points += run.count;
+        }
+    }
+}
+
 }  // namespace strata

@@ -44,6 +44,23 @@ struct MedialAxis {
     std::vector<UnmatchedRun> unmatched;  ///< sorted by (on_upper, contour, first)
 };
 
+/// How much medial axis one label has over every slice pair (a build's summary reports it).
+struct MedialCounts {
+    std::uint16_t label = 0;
+    std::uint64_t curves = 0;
+    std::uint64_t points = 0;            ///< medial points of those curves
+    std::uint64_t unmatched_runs = 0;    ///< contour runs without a correspondence
+    std::uint64_t unmatched_points = 0;  ///< contour points in those runs
+};
+
+/// Adds each label's curves, points, unmatched runs and unmatched points in `axes` (the medial
+/// axes of `contours`' slice pairs) to its entry of `counts`, sorted by label, making the
+/// entries of labels not there yet. Counting the axes of label batches one after another gives
+/// what counting their merge gives, so the axes can go once counted.
+void count_medial_axes(const std::vector<MedialAxis>& axes,
+                       const SliceContours& contours,
+                       std::vector<MedialCounts>& counts);
+
 /// Options of the medial stage.
 struct MedialOptions {
     /// Consecutive medial points whose correspondences skip contour points farther than this

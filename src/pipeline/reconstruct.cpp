@@ -524,6 +524,10 @@ Reconstruction reconstruct(const SliceStack& stack,
             simplify_batch(options, result, run, batch);
             clock.done("simplify");
         }
+        count_medial_axes(batch.axes, result.contours, result.medial_counts);
+        if (!options.keep_medial_axes) {
+            batch.axes = {};
+        }
         append_batch(result, run.labels.size(), batch);
 #if defined(__GLIBC__)
         // note: the batch's fields and scratch were freed in the arenas of the threads that
@@ -535,7 +539,7 @@ Reconstruction reconstruct(const SliceStack& stack,
     if (result.fields.empty()) {
         result.fields.resize(stack.depth);
     }
-    if (result.medial_axes.empty() && stack.depth > 1) {
+    if (options.keep_medial_axes && result.medial_axes.empty() && stack.depth > 1) {
         result.medial_axes = extract_medial_axes(result.contours, result.fields, options.medial);
     }
     report_warnings(stack, options, result, run, report);

@@ -4,6 +4,8 @@
 // take the labels with the most contour points first, so results come out of label order and
 // are put back in it).
 
+#include <array>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -20,9 +22,10 @@ struct Built {
     std::vector<std::string> warnings;
 };
 
-Built build(const SliceStack& stack, std::size_t batch_labels) {
+Built build(const SliceStack& stack, std::size_t batch_labels, bool keep_medial_axes = true) {
     ReconstructOptions options;
     options.keep_fields = false;
+    options.keep_medial_axes = keep_medial_axes;
     options.batch_labels = batch_labels;
     options.threads = 2;
     Built b;
@@ -78,6 +81,16 @@ void expect_same(const Built& a, const Built& b) {
             EXPECT_EQ(x.unmatched[r].count, y.unmatched[r].count);
         }
     }
+    ASSERT_EQ(a.result.medial_counts.size(), b.result.medial_counts.size());
+    for (std::size_t i = 0; i < a.result.medial_counts.size(); ++i) {
+        const MedialCounts& x = a.result.medial_counts[i];
+        const MedialCounts& y = b.result.medial_counts[i];
+        EXPECT_EQ(x.label, y.label);
+        EXPECT_EQ(x.curves, y.curves);
+        EXPECT_EQ(x.points, y.points);
+        EXPECT_EQ(x.unmatched_runs, y.unmatched_runs);
+        EXPECT_EQ(x.unmatched_points, y.unmatched_points);
+    }
     EXPECT_EQ(a.warnings, b.warnings);
     std::vector<std::string> stages_a, stages_b;
     for (const StageTiming& t : a.result.timings) {
@@ -106,6 +119,41 @@ TEST(BatchLabels, SameOutputForAnyBatchSize) {
     for (std::size_t batch : {1u, 2u, 3u}) {
         SCOPED_TRACE("batch " + std::to_string(batch));
         expect_same(all, build(stack, batch));
+    }
+}
+
+TEST(BatchLabels, MedialCountsWithoutTheAxesAreThoseOfTheKeptAxes) {
+    // batches of one label: each batch's axes are counted and freed, and the counts must be
+    // what counting every kept axis of a one-batch build gives
+    const SliceStack stack = make_phantom("scene").stack;
+    const Built kept = build(stack, 0);
+    const Built freed = build(stack, 1, false);
+    EXPECT_TRUE(freed.result.medial_axes.empty());
+    std::map<std::uint16_t, std::array<std::uint64_t, 4>> expected;
+    for (const MedialAxis& axis : kept.result.medial_axes) {
+        for (const MedialCurve& curve : axis.curves) {
+            expected[curve.label][0] += 1;
+            expected[curve.label][1] += curve.points.size();
+        }
+        for (const UnmatchedRun& run : axis.unmatched) {
+            const SliceContourSet& set =
+                kept.result.contours.slices[axis.lower_slice + (run.on_upper ? 1 : 0)];
+            const std::uint16_t label = set.contours[run.contour].label;
+            expected[label][2] += 1;
+            expected[label][3] += run.count;
+        }
+    }
+    ASSERT_EQ(expected.size(), 4u);  // the scene's four labels
+    ASSERT_EQ(freed.result.medial_counts.size(), expected.size());
+    std::size_t i = 0;
+    for (const auto& [label, counts] : expected) {
+        const MedialCounts& c = freed.result.medial_counts[i++];
+        EXPECT_EQ(c.label, label);
+        EXPECT_EQ(c.curves, counts[0]) << "label " << label;
+        EXPECT_EQ(c.points, counts[1]) << "label " << label;
+        EXPECT_EQ(c.unmatched_runs, counts[2]) << "label " << label;
+        EXPECT_EQ(c.unmatched_points, counts[3]) << "label " << label;
+        EXPECT_GT(c.points, 0u) << "label " << label;
     }
 }
 
