@@ -200,11 +200,12 @@ void LabelSurface::cap_region(std::uint32_t k, std::uint32_t region, bool top, b
 }
 
 /// Where the ring points of region `region` go at the end of the stack (slice k, above when
-/// `top`): a point p of the contour moves along its outward normal by
-/// (D_prev(p) - D_k(p)) / 2, the change of the signed distance over half a slab extrapolated
-/// from the previous slice (so the extension leans as the object does, up to 45 degrees); half
-/// or a quarter of that where a cap triangle would flip, and none (vertical walls, an empty map)
-/// where it still would or without a previous field.
+/// `top`): a point p of the contour moves along its outward normal (the ring's direction over
+/// 2 px each side) by the change of the signed distance over half a slab, extrapolated from the
+/// previous slice, (D_prev(p) - D_k(p)) / 2, or where the slice before that is known from the
+/// parabola through all three (so the extension leans as the object does, up to 45 degrees);
+/// half or a quarter of that where a cap triangle would flip, and none (vertical walls, an
+/// empty map) where it still would or without a previous field.
 std::map<std::uint32_t, Vec2> LabelSurface::end_lean(const Cdt& cdt,
                                                      std::uint32_t k,
                                                      std::uint32_t region,
@@ -221,21 +222,62 @@ std::map<std::uint32_t, Vec2> LabelSurface::end_lean(const Cdt& cdt,
     // slab of an AND layer, level_z_)
     const double half_slab =
         level_z_ == nullptr ? 0.5 : 0.5 * d / std::abs(slice_z(k) - slice_z(top ? k - 1 : k + 1));
+    // the slice before that, for the change's own change (equal gaps only: not an AND layer)
+    const bool has_second = level_z_ == nullptr && (top ? k >= 2 : k + 2 < contours_.slices.size());
+    const DistanceField* second = has_second ? field(top ? k - 2 : k + 2) : nullptr;
+    // Its field covers the label's pixels on its own and the neighbouring slices only; beyond
+    // its window a point is outside the label there, at the distance to that slice's rings.
+    const SegmentGrid second_rings =
+        second != nullptr ? SegmentGrid(rings_[top ? k - 2 : k + 2]) : SegmentGrid();
+    auto second_value = [&](Vec2 q) {
+        const double u = (q.x - second->origin_x) / DistanceField::kCellPx;
+        const double v = (q.y - second->origin_y) / DistanceField::kCellPx;
+        if (u >= 0.0 && v >= 0.0 && u <= second->nx - 1.0 && v <= second->ny - 1.0) {
+            return sample_field(second, q);
+        }
+        return second_rings.distance(q);
+    };
+    const double reach = 2.0;
     for_each_region_ring(k, region, [&](const Ring& ring) {
         const std::size_t n = ring.points.size();
         for (std::size_t i = 0; i < n; ++i) {
-            const Vec2 a = to_vec(ring.points[(i + n - 1) % n]);
             const Vec2 p = to_vec(ring.points[i]);
-            const Vec2 b = to_vec(ring.points[(i + 1) % n]);
+            // The ring's direction at p over at least `reach` px on each side (at most half the
+            // ring): a pixel staircase's own steps would turn neighbouring points' normals
+            // apart, and their leans would cross.
+            auto along = [&](bool forward) {
+                Vec2 q = p;
+                for (std::size_t j = 1; j <= std::max<std::size_t>((n - 1) / 2, 1); ++j) {
+                    q = to_vec(ring.points[forward ? (i + j) % n : (i + n - j) % n]);
+                    if (dot(q - p, q - p) >= reach * reach) {
+                        break;
+                    }
+                }
+                return q;
+            };
             // the region is on the left of the ring's direction: outward is to the right
-            const Vec2 t = (b - p) + (p - a);
+            const Vec2 t = along(true) - along(false);
             const double length = std::sqrt(dot(t, t));
             if (!(length > 0.0)) {
                 continue;
             }
             const Vec2 outward{t.y / length, -t.x / length};
-            const double shift = std::clamp(
-                half_slab * (sample_field(prev, p) - sample_field(here, p)), -0.5 * d, 0.5 * d);
+            const double d0 = sample_field(here, p);
+            const double d1 = sample_field(prev, p);
+            double change = half_slab * (d1 - d0);
+            if (second != nullptr) {
+                // The parabola through the three slices' values at p, half a slab on: an edge
+                // that slows down (the rounded end of a tube) or a side that stays put while
+                // the section moves along it (the distance grows as the square of the move,
+                // alike on both sides of the slice) is not pushed on by the last slab's change.
+                // Not where slice k-2 differs by more than 1.5 slabs' worth of change: the
+                // object begins or joins another there.
+                const double d2 = second_value(p);
+                if (std::abs(d2 - d1) <= 1.5 * d) {
+                    change = 0.5 * (d1 - d0) - 0.375 * (d0 - 2.0 * d1 + d2);
+                }
+            }
+            const double shift = std::clamp(change, -0.5 * d, 0.5 * d);
             offset[ring.ids[i]] = shift * outward;
         }
     });
