@@ -275,12 +275,13 @@ std::vector<std::uint32_t> local_coarse(const MultiresMesh& model,
 }
 
 /// Decodes `mesh` again and checks it against its input: every triangle of every `_CLUSTER`
-/// value, same orientation, and (with slots) every vertex's coarse vertex.
-void check_decoded(const EncodedMesh& mesh,
-                   const detail::DracoChunkInput& in,
-                   const std::vector<std::uint32_t>& coarse,
-                   std::uint32_t clusters,
-                   const std::string& where) {
+/// value, same orientation, and (with slots) every vertex's coarse vertex. Returns the decoded
+/// chunk.
+detail::DecodedChunk check_decoded(const EncodedMesh& mesh,
+                                   const detail::DracoChunkInput& in,
+                                   const std::vector<std::uint32_t>& coarse,
+                                   std::uint32_t clusters,
+                                   const std::string& where) {
     detail::DecodedChunk d;
     try {
         d = detail::decode_draco_chunk(
@@ -329,6 +330,7 @@ void check_decoded(const EncodedMesh& mesh,
             }
         }
     }
+    return d;
 }
 
 EncodedMesh encode_checked(const detail::DracoChunkInput& in,
@@ -343,10 +345,8 @@ EncodedMesh encode_checked(const detail::DracoChunkInput& in,
         throw Error(e.code(), where + ": " + e.what());
     }
     out.bytes = std::move(out.ids.bytes);
-    check_decoded(out, in, coarse, clusters, where);
-    const detail::DecodedChunk d =
-        detail::decode_draco_chunk(out.bytes, {out.ids.position_id, -1, -1, -1}, clusters,
-                                   std::numeric_limits<std::size_t>::max());
+    // note: points, faces and positions do not depend on the attributes read
+    const detail::DecodedChunk d = check_decoded(out, in, coarse, clusters, where);
     out.points = static_cast<std::uint32_t>(d.points);
     out.faces = static_cast<std::uint32_t>(d.triangles.size());
     out.min.fill(std::numeric_limits<float>::infinity());

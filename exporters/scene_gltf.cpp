@@ -96,12 +96,13 @@ void check_object(const std::filesystem::path& path, const SceneObject& object, 
     }
 }
 
-/// The shading normals (mesh/shading_normals.h), as float32; +z where one is not finite (a sum
-/// of products of finite floats can overflow).
-std::vector<float> float_normals(const TriMesh& mesh) {
+/// The object's shading normals (mesh/shading_normals.h; SceneObject::normals when given), as
+/// float32; +z where one is not finite (a sum of products of finite floats can overflow).
+std::vector<float> float_normals(const SceneObject& object) {
+    const TriMesh& mesh = object.mesh;
     std::vector<float> out;
     out.reserve(3 * mesh.positions.size());
-    for (Vec3 n : shading_normals(mesh)) {
+    for (Vec3 n : object.normals.empty() ? shading_normals(mesh) : object.normals) {
         if (!(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z))) {
             n = {0.0, 0.0, 1.0};
         }
@@ -191,11 +192,12 @@ struct DracoPrimitive {
 };
 
 DracoPrimitive encode_draco(const std::filesystem::path& path,
-                            const TriMesh& mesh,
+                            const SceneObject& object,
                             const SceneGltfOptions& options) {
+    const TriMesh& mesh = object.mesh;
     std::vector<double> min, max;
     const std::vector<float> positions = float_positions(mesh, min, max);
-    const std::vector<float> normals = float_normals(mesh);
+    const std::vector<float> normals = float_normals(object);
     const auto n = static_cast<std::uint32_t>(mesh.positions.size());
     draco::Mesh dm;
     dm.set_num_points(n);
@@ -297,7 +299,7 @@ int add_object(tinygltf::Model& model,
     } else {
         std::vector<double> min, max;
         const std::vector<float> positions = float_positions(mesh, min, max);
-        const std::vector<float> normals = float_normals(mesh);
+        const std::vector<float> normals = float_normals(object);
         const int position_view = buffer.add_view(
             positions.data(), positions.size() * sizeof(float), TINYGLTF_TARGET_ARRAY_BUFFER);
         const int position_accessor = buffer.add_accessor(
@@ -465,7 +467,7 @@ void write_scene_gltf(const std::filesystem::path& path,
     if (options.draco) {
         parallel_for(objects.size(), options.threads, [&](std::size_t i) {
             if (!objects[i].mesh.triangles.empty()) {
-                draco[i] = encode_draco(path, objects[i].mesh, options);
+                draco[i] = encode_draco(path, objects[i], options);
             }
         });
     }

@@ -16,6 +16,9 @@ struct SceneObject {
     std::uint16_t label = 0;       ///< label value in the source
     std::array<double, 3> srgb{};  ///< display colour, sRGB, each channel in [0, 1]
     TriMesh mesh;  ///< positions in patient LPS millimetres, outward triangles counter-clockwise
+    /// shading_normals(mesh) when the caller has them already (one per vertex), else empty: the
+    /// writers compute them (the same vectors either way).
+    std::vector<Vec3> normals;
 };
 
 /// Where a scene comes from; copied into every object node's `extras`.

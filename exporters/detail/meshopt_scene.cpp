@@ -89,7 +89,7 @@ void write_meshopt_scene(const std::filesystem::path& path,
             }
             input.grid_positions.push_back(q);
         }
-        for (const Vec3& n : shading_normals(mesh)) {
+        for (const Vec3& n : object.normals.empty() ? shading_normals(mesh) : object.normals) {
             input.normals.push_back({to_float(n.x), to_float(n.y), to_float(n.z)});
         }
         MeshoptMesh encoded;

@@ -419,9 +419,10 @@ std::vector<SceneObject> write_surface_meshes(const BuildOptions& options,
         result.surfaces[i].mesh = {};
         checks[i] = check_mesh(object.mesh);
         if (!object.mesh.triangles.empty()) {
-            write_mesh(
-                object.mesh, out.staged(mesh_files[i]),
-                options.mesh_format == "stl" ? std::vector<Vec3>{} : shading_normals(object.mesh));
+            // note: the normals stay for scene.glb, which would compute the same again
+            object.normals = shading_normals(object.mesh);
+            write_mesh(object.mesh, out.staged(mesh_files[i]),
+                       options.mesh_format == "stl" ? std::vector<Vec3>{} : object.normals);
         }
     });
     const double mm_per_px = error_mm_per_px(stack);
@@ -499,6 +500,7 @@ int run_build(const BuildOptions& options) {
     }
     for (SceneObject& object : scene) {
         object.mesh = {};
+        object.normals = {};
     }
 #if defined(__GLIBC__)
     malloc_trim(0);  // note: return the freed pages before the progressive scene's encodings
