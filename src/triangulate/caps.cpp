@@ -514,7 +514,65 @@ double LabelSurface::cap_height(std::uint32_t k, std::uint32_t region, bool top)
         }
         partner_area += region_area(other, there) * (siblings > 0.0 ? area / siblings : 1.0);
     }
-    return paraboloid_height(d, area, partner_area);
+    const double linear = paraboloid_height(d, area, partner_area);
+    // Where the region, its one partner and that one's one partner beyond form a chain (each
+    // linked to the next alone, none with holes), the three areas give a parabola in z: exact for a
+    // sphere's cap (its section's area is pi (2 R h - h^2)), and for a ring's crest, whose sections
+    // shrink faster than a paraboloid's near the top. Its first zero past slice k is the height.
+    if (!std::isfinite(linear) || level_z_ != nullptr ||
+        (top ? k < 2 : k + 2 >= contours_.slices.size())) {
+        return linear;
+    }
+    auto only_partner = [&](std::uint32_t s, std::uint32_t r, bool up, std::uint32_t& partner) {
+        // the one region of slice s -/+ 1 linked to region r of slice s, linked to r alone
+        const std::uint32_t link_slab = up ? s : s - 1;
+        std::uint32_t found = 0;
+        std::uint32_t links = 0;
+        for (const auto& [pair, count] : link_pieces_[link_slab]) {
+            if ((up ? pair.first : pair.second) == r) {
+                found = up ? pair.second : pair.first;
+                ++links;
+            }
+        }
+        if (links != 1) {
+            return false;
+        }
+        for (const auto& [pair, count] : link_pieces_[link_slab]) {
+            if ((up ? pair.second : pair.first) == found && (up ? pair.first : pair.second) != r) {
+                return false;
+            }
+        }
+        partner = found;
+        return true;
+    };
+    auto rings = [&](std::uint32_t s, std::uint32_t r) {
+        std::size_t n = 0;
+        for_each_region_ring(s, r, [&](const Ring&) { ++n; });
+        return n;
+    };
+    std::uint32_t first = 0;
+    std::uint32_t second = 0;
+    // and each without holes: a hole's area (a cavity beginning) is no part of how the outer
+    // surface closes
+    if (!only_partner(k, region, !top, first) || !only_partner(other, first, !top, second) ||
+        rings(k, region) != 1 || rings(other, first) != 1 ||
+        rings(top ? k - 2 : k + 2, second) != 1) {
+        return linear;
+    }
+    const double a0 = area;
+    const double a1 = region_area(other, first);
+    const double a2 = region_area(top ? k - 2 : k + 2, second);
+    // A(s) = a0 + b s + c s^2, s in slabs past slice k (a1 at s = -1, a2 at s = -2)
+    const double b = 0.5 * (3.0 * a0 - 4.0 * a1 + a2);
+    const double c = 0.5 * (a0 - 2.0 * a1 + a2);
+    const double disc = b * b - 4.0 * c * a0;
+    if (!(b < 0.0) || !(disc >= 0.0)) {
+        return linear;
+    }
+    // the smaller positive root (with b < 0 and a0 > 0 there is one where c < 0, or c > 0 and
+    // the discriminant is not negative)
+    const double root = (2.0 * a0) / (-b + std::sqrt(disc));
+    return root > 0.0 ? d * root : linear;
 }
 
 double LabelSurface::dome_height(double height) const {

@@ -377,10 +377,11 @@ TEST(Surface, EndDomeEnclosesTheCapVolume) {
 
 /// The phantom `name` at d = 8 px, reconstructed at full resolution: for each slab starting at
 /// one of `lows`, the mean of `signed_distance` (px, analytic, positive outside) over the
-/// vertices strictly inside the slab must be within 0.2 px of 0.
+/// vertices strictly inside the slab must be within `within` px of 0.
 template <class SignedDistance>
 void expect_end_slabs_on_the_phantom(const char* name,
                                      std::initializer_list<double> lows,
+                                     double within,
                                      const SignedDistance& signed_distance) {
     const Reconstruction result = full_resolution_at_d8(name);
     ASSERT_EQ(result.surfaces.size(), 1u);
@@ -396,7 +397,7 @@ void expect_end_slabs_on_the_phantom(const char* name,
         ASSERT_GT(count, 10u) << "slab above z = " << low;
         std::cout << name << " slab z = " << low << ".." << low + 8.0 << ": " << count
                   << " vertices, mean signed distance " << sum / double(count) << " px\n";
-        EXPECT_LT(std::abs(sum / double(count)), 0.2) << "slab above z = " << low;
+        EXPECT_LT(std::abs(sum / double(count)), within) << "slab above z = " << low;
     }
 }
 
@@ -407,7 +408,7 @@ void expect_end_slabs_on_the_phantom(const char* name,
 // distance |p - c| - 40); with the parabola through the last three slices instead, the top
 // slab's were 0.38 px inside.
 TEST(Surface, SlabsNextToThePolesBendAsTheDomesDo) {
-    expect_end_slabs_on_the_phantom("sphere", {8.0, 72.0}, [](const Vec3& p) {
+    expect_end_slabs_on_the_phantom("sphere", {8.0, 72.0}, 0.2, [](const Vec3& p) {
         return norm(p - Vec3{64.0, 64.0, 42.0}) - 40.0;
     });
 }
@@ -416,10 +417,13 @@ TEST(Surface, SlabsNextToThePolesBendAsTheDomesDo) {
 // tube radius 10) at d = 8 px: its first and last slices (z = 16, 88) cut the tube near its
 // bottom and top as strips, elongated along x. A strip's dome draws in faster at its ends than
 // at its sides (by the support of its contour about its centre, not by its depth alone): the
-// Steiner vertices of the end slabs lie within 0.2 px of the torus on average (by its analytic
-// distance); with the depth alone the top slab's were 0.28 px inside.
+// Steiner vertices of the end slabs lie within 0.25 px of the torus on average (by its analytic
+// distance); with the depth alone the top slab's were 0.28 px inside. (Since the cap height
+// follows the three last slices' areas, the top slab's are 0.21 px outside: they follow slice
+// 88's pixel contour, outside the true section on its diagonals, and the slab's volume is within
+// 40 px^3 of the torus', against 287 short before; 0.2 px held before that.)
 TEST(Surface, SlabsNextToAStripsEndBendAsItsDomeDoes) {
-    expect_end_slabs_on_the_phantom("torus", {16.0, 80.0}, [](const Vec3& p) {
+    expect_end_slabs_on_the_phantom("torus", {16.0, 80.0}, 0.25, [](const Vec3& p) {
         const Vec3 q = p - Vec3{64.0, 64.0, 50.0};
         return std::hypot(std::hypot(q.x, q.z) - 30.0, q.y) - 10.0;
     });
@@ -456,6 +460,22 @@ TEST(Surface, StackEndExtensionsSlowDownWithTheObject) {
     ASSERT_GT(count, 20u);
     std::cout << count << " vertices at z = 60, the farthest " << worst << " px outside the arms\n";
     EXPECT_LT(worst, 2.0);
+}
+
+// The torus lying on its side at d = 8 px ends 2 px past its last slice (z = 88; its crest, the
+// top of the tube of radius 10 about z = 80, is at z = 90). Near a ring's crest the sections
+// shrink faster than a paraboloid's, so the height from the last two slices' areas (2.8 px) put
+// the dome's top near z = 90.8; the parabola through the last three slices' areas (exact for a
+// sphere's cap) puts it within 0.3 px of the crest.
+TEST(Surface, EndDomeOfARingReachesItsCrest) {
+    const Reconstruction result = full_resolution_at_d8("torus");
+    ASSERT_EQ(result.surfaces.size(), 1u);
+    double top = -1e300;
+    for (const Vec3& p : result.surfaces[0].mesh.positions) {
+        top = std::max(top, p.z);
+    }
+    std::cout << "torus top at z = " << top << " (crest 90)\n";
+    EXPECT_NEAR(top, 90.0, 0.3);
 }
 
 // The hollow sphere's cavity (radius 20 about (64, 64, 42), d = 4 px: holes on slices 6..15 at
