@@ -77,7 +77,54 @@ static_assert(kSliceRepairs[0].first == kRepairPolicy[0].step &&
               kSliceRepairs[1].first == kRepairPolicy[1].step &&
               kSliceRepairs[2].first == kRepairPolicy[2].step);
 
-/// Triangulations of a label with the slice steps, at most (the label is built again each time).
+/// The contours, regions and links of `label` alone, contour indices renumbered (what the
+/// repairs change and the triangulation of `label` reads, without the other labels' contours).
+SliceContours label_contours(const SliceContours& contours, std::uint16_t label) {
+    SliceContours own;
+    own.width = contours.width;
+    own.height = contours.height;
+    own.tolerance_px = contours.tolerance_px;
+    own.slices.resize(contours.slices.size());
+    std::vector<std::int32_t> index;
+    for (std::size_t k = 0; k < contours.slices.size(); ++k) {
+        const SliceContourSet& set = contours.slices[k];
+        SliceContourSet& out = own.slices[k];
+        index.assign(set.contours.size(), -1);
+        for (std::size_t c = 0; c < set.contours.size(); ++c) {
+            if (set.contours[c].label == label) {
+                index[c] = std::int32_t(out.contours.size());
+                out.contours.push_back(set.contours[c]);
+            }
+        }
+        auto renumber = [&](std::int32_t& c) {
+            if (c >= 0) {
+                c = index[std::size_t(c)];
+            }
+        };
+        for (Contour& c : out.contours) {
+            renumber(c.parent);
+        }
+        for (const SliceLabelRegions& regions : set.labels) {
+            if (regions.label == label) {
+                out.labels.push_back(regions);
+                for (std::int32_t& c : out.labels.back().outer_contour) {
+                    renumber(c);
+                }
+                for (std::int32_t& c : out.labels.back().hole_contour) {
+                    renumber(c);
+                }
+            }
+        }
+    }
+    for (const RegionLink& link : contours.links) {
+        if (link.label == label) {
+            own.links.push_back(link);
+        }
+    }
+    return own;
+}
+
+/// Attempts of the slice steps on a label, at most (its slabs are checked again after each).
 constexpr int kSliceRepairAttempts = 4;
 
 /// One label's surface with the repairs of its mismatched slabs (kCornerVertices ..
@@ -90,19 +137,23 @@ ObjectSurface triangulate_label_with_repairs(const SliceStack& stack,
                                              std::uint16_t label,
                                              RepairRecord& record) {
     record.label = label;
-    LabelTriangulation built = triangulate_label(contours, fields, medial_axes, options, label);
+    // note: a surface with a mismatched slab is replaced, so only the last build (no mismatch
+    // left) or the split one is finished; the others stop once a slab mismatches, and the
+    // attempts' builds check the slabs' contours only (TriangulateMode)
+    LabelTriangulation built = triangulate_label(contours, fields, medial_axes, options, label,
+                                                 TriangulateMode::kSurfaceIfMatched);
     if (built.mismatched_slabs.empty()) {
         return std::move(built.surface);
     }
-    SliceContours repaired = contours;
+    std::vector<std::uint32_t> mismatched = std::move(built.mismatched_slabs);
+    SliceContours repaired = label_contours(contours, label);
     SliceRepairContext context{label, fields, {}, unsimplify_radius_px(contours.tolerance_px)};
     context.corners.tolerance_px = contours.tolerance_px;
     context.corners.edge_midpoints = false;
     // Per slice: the slice steps tried so far (the next one to try).
     std::vector<std::size_t> tried(contours.slices.size(), 0);
-    for (int attempt = 0; attempt < kSliceRepairAttempts && !built.mismatched_slabs.empty();
-         ++attempt) {
-        for (const std::uint32_t k : built.mismatched_slabs) {
+    for (int attempt = 0; attempt < kSliceRepairAttempts && !mismatched.empty(); ++attempt) {
+        for (const std::uint32_t k : mismatched) {
             for (const std::uint32_t slice : {k, k + 1}) {
                 while (tried[slice] < kSliceRepairs.size()) {
                     const SliceRepair step = kSliceRepairs[tried[slice]++].second;
@@ -112,20 +163,22 @@ ObjectSurface triangulate_label_with_repairs(const SliceStack& stack,
                 }
             }
         }
-        built = triangulate_label(repaired, fields, medial_axes, options, label);
+        mismatched = triangulate_label(repaired, fields, medial_axes, options, label,
+                                       TriangulateMode::kMismatchesOnly)
+                         .mismatched_slabs;
     }
     ObjectSurface surface;
-    if (!built.mismatched_slabs.empty()) {
+    if (!mismatched.empty()) {
         std::vector<bool> split(contours.slices.size(), false);
-        for (const std::uint32_t k : built.mismatched_slabs) {
+        for (const std::uint32_t k : mismatched) {
             split[k] = true;
         }
         surface =
             triangulate_label_split(stack, repaired, fields, medial_axes, options, label, split)
                 .surface;
-        record.split_slabs = std::uint32_t(built.mismatched_slabs.size());
+        record.split_slabs = std::uint32_t(mismatched.size());
     } else {
-        surface = std::move(built.surface);
+        surface = triangulate_label(repaired, fields, medial_axes, options, label).surface;
     }
     for (std::uint32_t k = 0; k < tried.size(); ++k) {
         if (tried[k] > 2) {

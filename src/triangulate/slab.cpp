@@ -78,6 +78,16 @@ void LabelSurface::triangulate_slab(std::uint32_t k) {
         issue(k, std::to_string(unowned) + " contour edges cross unexpectedly");
     }
     check_overlap_topology(cdt, k);
+    if (!mismatched_slabs_.empty() && mismatch_seen_ != nullptr) {
+        mismatch_seen_->store(true, std::memory_order_relaxed);
+    }
+    // note: a surface with a mismatched slab is not kept (TriangulateMode): its other slabs
+    // need only their check
+    if (mode_ == TriangulateMode::kMismatchesOnly ||
+        (mode_ == TriangulateMode::kSurfaceIfMatched && mismatch_seen_ != nullptr &&
+         mismatch_seen_->load(std::memory_order_relaxed))) {
+        return;
+    }
 
     steiner_t_.clear();
     steiner_band_.clear();

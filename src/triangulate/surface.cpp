@@ -44,7 +44,14 @@ LabelTriangulation LabelSurface::build() {
     share_overlap_points();
     build_rings();
     splits_.clear();
+    std::atomic<bool> mismatch_seen{false};
+    mismatch_seen_ = &mismatch_seen;
     triangulate_slabs();
+    mismatch_seen_ = nullptr;
+    if (mode_ == TriangulateMode::kMismatchesOnly ||
+        (mode_ == TriangulateMode::kSurfaceIfMatched && !mismatched_slabs_.empty())) {
+        return {std::move(surface_), std::move(mismatched_slabs_)};
+    }
     for (std::uint32_t k = 0; k < slices; ++k) {
         for (std::uint32_t r = 0; r < region_count_[k]; ++r) {
             const bool top = !linked_up_[k][r];
@@ -254,9 +261,10 @@ LabelTriangulation triangulate_label(const SliceContours& contours,
                                      const std::vector<SliceDistanceFields>& fields,
                                      const std::vector<MedialAxis>& medial_axes,
                                      const TriangulateOptions& options,
-                                     std::uint16_t label) {
+                                     std::uint16_t label,
+                                     TriangulateMode mode) {
     LabelTriangulation result =
-        detail::LabelSurface(contours, fields, medial_axes, options, label).build();
+        detail::LabelSurface(contours, fields, medial_axes, options, label, nullptr, mode).build();
     result.surface.contour_deviation_px = contour_deviation_px(contours, label);
     return result;
 }

@@ -107,6 +107,15 @@ struct LabelTriangulation {
     std::vector<std::uint32_t> mismatched_slabs;
 };
 
+/// How much of a label triangulate_label builds. A slab's mismatch is decided from its contour
+/// rings alone, before any of its Steiner points, so the mismatched slabs are the same in every
+/// mode; a surface with a mismatched slab is one the repair policy (pipeline/repair.h) replaces.
+enum class TriangulateMode {
+    kSurface,           ///< the surface, and its mismatched slabs
+    kSurfaceIfMatched,  ///< the surface when no slab mismatches; else only the mismatched slabs
+    kMismatchesOnly,    ///< only the mismatched slabs (the surface is left unfinished)
+};
+
 /// Triangulates one label of the stack (paper section 5) into one closed surface.
 ///
 /// Between slices k and k+1 the surface is the graph, over the symmetric difference of the two
@@ -127,12 +136,14 @@ struct LabelTriangulation {
 /// (TriangulateOptions::relax, relax_fold_heights): each slab stays a graph over its planar
 /// triangulation, so the surface stays embedded and its slice-plane sections do not change.
 /// Output: vertices without duplicates, triangles outward CCW;
-/// `surface.contour_deviation_px` is that of `contours`.
+/// `surface.contour_deviation_px` is that of `contours`. Modes other than kSurface leave the
+/// surface unfinished whenever `mismatched_slabs` is not empty (kMismatchesOnly: always).
 LabelTriangulation triangulate_label(const SliceContours& contours,
                                      const std::vector<SliceDistanceFields>& fields,
                                      const std::vector<MedialAxis>& medial_axes,
                                      const TriangulateOptions& options,
-                                     std::uint16_t label);
+                                     std::uint16_t label,
+                                     TriangulateMode mode = TriangulateMode::kSurface);
 
 /// The same with every slab k where `split[k]` split at the pixels' AND layer: a level half way
 /// between the slices whose contours are those of the pixels of `label` in both slices of

@@ -18,6 +18,7 @@
 #include "mesh/self_intersection.h"
 #include "pipeline/reconstruct.h"
 #include "support/reference_topology.h"
+#include "triangulate/surface.h"
 
 namespace strata {
 namespace {
@@ -197,6 +198,67 @@ TEST(FallbackSteps, SplitSurfaceExtendsPastTheStackEnds) {
     // d = 4 px, slices at z = 0 and 4
     EXPECT_EQ(lo, -2.0);
     EXPECT_EQ(hi, 6.0);
+}
+
+/// `stack`'s two slices alternating, `depth` slices in all.
+SliceStack alternating(const SliceStack& stack, std::uint32_t depth) {
+    SliceStack out = stack;
+    out.depth = depth;
+    out.labels.clear();
+    for (std::uint32_t k = 0; k < depth; ++k) {
+        const auto slice = stack.slice(k % 2);
+        out.labels.insert(out.labels.end(), slice.begin(), slice.end());
+    }
+    return out;
+}
+
+/// Label 1 of `r` triangulated in `mode` on `threads` threads.
+LabelTriangulation triangulated(const Reconstruction& r, TriangulateMode mode, unsigned threads) {
+    TriangulateOptions options;
+    options.slice_spacing_px = r.slice_spacing_px;
+    options.threads = threads;
+    return triangulate_label(r.contours, r.fields, r.medial_axes, options, 1, mode);
+}
+
+// The repairs check their attempts' contours with TriangulateMode::kMismatchesOnly and stop a
+// first build at its first mismatch (kSurfaceIfMatched): both must name the slabs the whole
+// build names, on any thread count, and without a mismatch kSurfaceIfMatched must give the
+// whole build's surface.
+TEST(FallbackSteps, EveryModeNamesTheSameMismatchedSlabs) {
+    for (const std::uint32_t depth : {2u, 5u}) {
+        const Reconstruction r = reconstructed(alternating(split_fixture(), depth));
+        const std::vector<std::uint32_t> whole =
+            triangulated(r, TriangulateMode::kSurface, 1).mismatched_slabs;
+        ASSERT_FALSE(whole.empty()) << depth;
+        for (const unsigned threads : {1u, 3u}) {
+            for (const TriangulateMode mode :
+                 {TriangulateMode::kSurfaceIfMatched, TriangulateMode::kMismatchesOnly}) {
+                EXPECT_EQ(triangulated(r, mode, threads).mismatched_slabs, whole)
+                    << depth << " slices, " << threads << " threads";
+            }
+        }
+    }
+    // clang-format off
+    const Reconstruction clean = reconstructed(alternating(two_slices(
+        {
+            "aaaaa...",
+            "aXXXXbb.",
+            "aXXXXbb.",
+            "aXXXXbb.",
+            "..bbbbb.",
+        },
+        2.0), 5));
+    // clang-format on
+    for (const unsigned threads : {1u, 3u}) {
+        const LabelTriangulation whole = triangulated(clean, TriangulateMode::kSurface, threads);
+        ASSERT_TRUE(whole.mismatched_slabs.empty());
+        const LabelTriangulation matched =
+            triangulated(clean, TriangulateMode::kSurfaceIfMatched, threads);
+        EXPECT_TRUE(matched.mismatched_slabs.empty());
+        EXPECT_EQ(matched.surface.mesh.positions, whole.surface.mesh.positions);
+        EXPECT_EQ(matched.surface.mesh.triangles, whole.surface.mesh.triangles);
+        EXPECT_EQ(matched.surface.slabs, whole.surface.slabs);
+    }
 }
 
 }  // namespace

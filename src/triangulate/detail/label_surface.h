@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -231,13 +232,15 @@ public:
                  const std::vector<MedialAxis>& medial_axes,
                  const TriangulateOptions& options,
                  std::uint16_t label,
-                 const std::vector<double>* level_z = nullptr)
+                 const std::vector<double>* level_z = nullptr,
+                 TriangulateMode mode = TriangulateMode::kSurface)
         : contours_(contours),
           fields_(fields),
           medial_axes_(medial_axes),
           options_(options),
           label_(label),
-          level_z_(level_z) {}
+          level_z_(level_z),
+          mode_(mode) {}
 
     LabelTriangulation build();
 
@@ -428,6 +431,9 @@ private:
     std::uint16_t label_;
     /// z of each level when levels are not the slices (split slabs), else null: z = k d.
     const std::vector<double>* level_z_;
+    TriangulateMode mode_;
+    /// Set once any slab mismatched (kSurfaceIfMatched: the other slabs stop after their check).
+    std::atomic<bool>* mismatch_seen_ = nullptr;
 
     ObjectSurface surface_;
     /// Per slice: indices (into the slice's contour list) of this label's contours.
