@@ -103,11 +103,15 @@ void LabelSurface::triangulate_slabs() {
     }
     // note: a ring point's coordinates as doubles tighten once its exact value is known (a
     // crossing computed lazily); known from here on, the two slabs of a slice read the same
-    // doubles whichever of them runs first
+    // doubles whichever of them runs first. A point whose interval is one double already (a
+    // contour vertex) has nothing to tighten: its exact value, which costs, is left alone.
     for (const std::vector<Ring>& slice : rings_) {
         for (const Ring& ring : slice) {
             for (const Point& p : ring.points) {
-                CGAL::exact(p);
+                const auto& approx = p.approx();
+                if (approx.x().inf() != approx.x().sup() || approx.y().inf() != approx.y().sup()) {
+                    CGAL::exact(p);
+                }
             }
         }
     }
