@@ -1,7 +1,6 @@
 #pragma once
 
 #include <algorithm>
-#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <exception>
@@ -39,8 +38,6 @@ struct ParallelPool {
     std::mutex mutex;
     std::condition_variable changed;
     std::vector<ParallelJob*> jobs;  ///< jobs with items left to claim, oldest first
-    /// Threads waiting for any job's items (not those waiting for their own nested call's).
-    std::atomic<std::size_t> idle{0};
 };
 
 /// The pool whose items this thread runs, or null outside every parallel_for.
@@ -64,9 +61,7 @@ inline void run_until_finished(ParallelPool& pool,
             if (job.active == 0) {
                 return;
             }
-            pool.idle += only_own ? 0 : 1;
             pool.changed.wait(lock);
-            pool.idle -= only_own ? 0 : 1;
             continue;
         }
         const std::size_t i = take->next++;
@@ -93,13 +88,6 @@ inline void run_until_finished(ParallelPool& pool,
             pool.changed.notify_all();
         }
     }
-}
-
-/// Threads of the enclosing parallel_for waiting for work, which a parallel_for called now
-/// would get (0 outside every parallel_for); a hint: it may change at once.
-inline std::size_t idle_threads() {
-    const ParallelPool* pool = current_pool;
-    return pool != nullptr ? pool->idle.load(std::memory_order_relaxed) : 0;
 }
 
 }  // namespace detail

@@ -25,7 +25,6 @@
 #include <unordered_map>
 
 #include "core/error.h"
-#include "core/parallel.h"
 #include "mesh/self_intersection.h"
 #include "simplify/detail/triangle_grid.h"
 #include "simplify/detail/triangle_hash.h"
@@ -219,8 +218,6 @@ bool certainly_apart(const std::array<Vec3, 3>& a,
 }
 
 class Collapser {
-    struct Scratch;
-
 public:
     Collapser(const CollapseProblem& problem,
               const SliceErrorMeter& meter,
@@ -232,16 +229,7 @@ public:
           meter_(meter),
           options_(options),
           cache_(options.error_floor_px, options.max_error_px),
-          grid_(grid_cell(problem)),
-          main_(options) {
-        if (resolve_thread_count(options.threads) > 1) {
-            parts_.reserve(resolve_thread_count(options.threads));
-            for (unsigned i = 0; i < resolve_thread_count(options.threads); ++i) {
-                parts_.emplace_back(options);
-                parts_.back().speculative = true;
-                parts_.back().sections.set_base(&cache_);
-            }
-        }
+          grid_(grid_cell(problem)) {
         if (exact_.size() != positions_.size()) {
             throw Error(ErrorCode::InvalidInput, "edge collapse: " + std::to_string(exact_.size()) +
                                                      " exact positions for " +
@@ -262,9 +250,6 @@ public:
         std::sort(global_.begin(), global_.end());
         global_.erase(std::unique(global_.begin(), global_.end()), global_.end());
         const std::size_t n = global_.size();
-        if (!parts_.empty()) {
-            speculation_.resize(n);
-        }
         vertex_triangles_.resize(n);
         locked_.assign(n, false);
         stamp_.assign(n, 0);
@@ -330,11 +315,6 @@ public:
                 // The candidates of u at the floor, in (u, v) order: every queued candidate costs
                 // more than the floor, and none is added before one of them collapses (u goes).
                 const std::uint32_t u = floor_vertices_.top();
-                if (!parts_.empty() && !vertex_triangles_[u].empty() &&
-                    options_.error_floor_px <= options_.max_error_px && !speculated(u) &&
-                    detail::idle_threads() > 0) {
-                    speculate();
-                }
                 floor_vertices_.pop();
                 pending_[u] = false;
                 if (vertex_triangles_[u].empty()) {
@@ -343,13 +323,11 @@ public:
                 if (options_.error_floor_px > options_.max_error_px) {
                     break;
                 }
-                const bool ahead = speculated(u);
                 const std::vector<std::uint32_t>& nu = neighbours(u);
                 for (std::size_t i = 0; i < nu.size(); ++i) {
                     const std::uint32_t v = nu[i];
                     const Candidate c{options_.error_floor_px, u, v, stamp_[u], Candidate::kFloor};
-                    if (try_collapse(c, i + 1 < nu.size(),
-                                     ahead ? speculated_cost(u, v) : nullptr)) {
+                    if (try_collapse(c, i + 1 < nu.size())) {
                         result.collapses.emplace_back(global_[u], global_[v]);
                         break;  // u is gone, and with it nu's entry
                     }
@@ -596,19 +574,18 @@ private:
     /// collapse) around its first end. The piece is an oriented manifold (check_edges, and the
     /// link condition keeps it one), so an edge has at most two triangles.
     /// Counting stops above `limit` (the count returned is then limit + 1).
-    std::size_t folds(Scratch& scratch,
-                      std::uint32_t u,
+    std::size_t folds(std::uint32_t u,
                       std::uint32_t v,
                       bool after,
                       std::size_t limit = std::numeric_limits<std::size_t>::max()) const {
-        std::vector<FoldTriangle>& star = scratch.fold_star;
+        std::vector<FoldTriangle>& star = fold_star_;
         star.clear();
-        refresh_star(scratch, u);
+        refresh_star(u);
         const std::vector<std::uint32_t>& triangles = vertex_triangles_[u];
         for (std::size_t i = 0; i < triangles.size(); ++i) {
             const std::uint32_t t = triangles[i];
             if (!after) {
-                star.push_back({triangles_[t], scratch.star.normals[i]});
+                star.push_back({triangles_[t], star_cache_.normals[i]});
                 continue;
             }
             if (contains(t, v)) {
@@ -639,7 +616,7 @@ private:
                     }
                 }
                 Vec3 beside;
-                if (other == nullptr && beside_normal(scratch, u, a, b, beside)) {
+                if (other == nullptr && beside_normal(u, a, b, beside)) {
                     other = &beside;
                 }
                 if (other != nullptr && dot(star[i].normal, *other) < 0.0 && ++count > limit) {
@@ -654,8 +631,8 @@ private:
     /// length, and the triangles beside it met so far (see beside_normal).
     /// note: every candidate of u reads the same; cost() and folds() ask for them once per
     /// candidate.
-    void refresh_star(Scratch& scratch, std::uint32_t u) const {
-        StarCache& s = scratch.star;
+    void refresh_star(std::uint32_t u) const {
+        StarCache& s = star_cache_;
         if (s.vertex == u && s.collapses == collapses_) {
             return;
         }
@@ -673,10 +650,9 @@ private:
 
     /// The normal of the first triangle of a's star that has edge ab and not u, into `normal`;
     /// false when there is none. Read once per (a, b) between two collapses.
-    bool beside_normal(
-        Scratch& scratch, std::uint32_t u, std::uint32_t a, std::uint32_t b, Vec3& normal) const {
-        refresh_star(scratch, u);
-        for (const Beside& e : scratch.star.beside) {
+    bool beside_normal(std::uint32_t u, std::uint32_t a, std::uint32_t b, Vec3& normal) const {
+        refresh_star(u);
+        for (const Beside& e : star_cache_.beside) {
             if (e.a == a && e.b == b) {
                 normal = e.normal;
                 return e.found;
@@ -694,7 +670,7 @@ private:
                 break;
             }
         }
-        scratch.star.beside.push_back(e);
+        star_cache_.beside.push_back(e);
         normal = e.normal;
         return e.found;
     }
@@ -702,28 +678,24 @@ private:
     /// True when collapsing u onto v adds a fold.
     /// note: the count before does not depend on v and nothing changes between two collapses,
     /// so the candidates of one vertex count it once.
-    bool adds_fold(Scratch& scratch, std::uint32_t u, std::uint32_t v) const {
-        FoldsBefore& before = scratch.folds_before;
-        if (before.vertex != u || before.collapses != collapses_) {
-            before = {u, collapses_, folds(scratch, u, v, false)};
+    bool adds_fold(std::uint32_t u, std::uint32_t v) const {
+        if (folds_before_.vertex != u || folds_before_.collapses != collapses_) {
+            folds_before_ = {u, collapses_, folds(u, v, false)};
         }
-        return folds(scratch, u, v, true, before.count) > before.count;
+        return folds(u, v, true, folds_before_.count) > folds_before_.count;
     }
 
     /// Cost of collapsing u onto v (max error bound of the changed triangles, with the distances
     /// of the contour pieces they take when `pieces`), or nothing when the collapse folds or
     /// degenerates a triangle.
-    std::optional<double> cost(Scratch& scratch,
-                               std::uint32_t u,
-                               std::uint32_t v,
-                               bool pieces) const {
+    std::optional<double> cost(std::uint32_t u, std::uint32_t v, bool pieces) const {
         double reached = options_.error_floor_px;
-        std::vector<std::array<Vec3, 3>>& moved_corners = scratch.moved_corners;
+        std::vector<std::array<Vec3, 3>>& moved_corners = moved_corners_;
         moved_corners.clear();
-        std::vector<std::uint32_t>& own = scratch.moved_index;  // per star triangle, kNone: removed
+        std::vector<std::uint32_t>& own = moved_index_;  // per star triangle, kNone: removed
         own.clear();
         const std::vector<std::uint32_t>& star = vertex_triangles_[u];
-        refresh_star(scratch, u);
+        refresh_star(u);
         // note: every fold is ruled out before any error is read (folds are common, and the
         // errors are the expensive part).
         for (std::size_t i = 0; i < star.size(); ++i) {
@@ -734,9 +706,9 @@ private:
             }
             own.push_back(std::uint32_t(moved_corners.size()));
             const std::array<Vec3, 3> after = moved(t, u, v);
-            const Vec3& n0 = scratch.star.normals[i];
+            const Vec3& n0 = star_cache_.normals[i];
             const Vec3 n1 = normal_of(after[0], after[1], after[2]);
-            const double l0 = scratch.star.lengths[i], l1 = norm(n1);
+            const double l0 = star_cache_.lengths[i], l1 = norm(n1);
             if (!(l1 > 0.0) || !(l0 > 0.0)) {
                 return std::nullopt;
             }
@@ -750,7 +722,7 @@ private:
         }
         // A fold looks like what it is whatever the slice sections say: a collapse may not add
         // one.
-        if (adds_fold(scratch, u, v)) {
+        if (adds_fold(u, v)) {
             return std::nullopt;
         }
 
@@ -758,7 +730,7 @@ private:
             if (own[i] == kNone) {
                 continue;
             }
-            reached = std::max(reached, moved_error(scratch, star[i], u, v, moved_corners[own[i]]));
+            reached = std::max(reached, moved_error(star[i], u, v, moved_corners[own[i]]));
             if (reached > options_.max_error_px) {
                 return std::nullopt;
             }
@@ -766,14 +738,14 @@ private:
         if (!pieces) {
             return reached;
         }
-        return pieces_cost(scratch, u, reached);
+        return pieces_cost(u, reached);
     }
 
     /// The rest of cost(u, v, true) after cost(u, v, false) returned `reached` (its scratch,
     /// moved_corners_ and moved_index_, still holding u's star moved onto v).
-    std::optional<double> pieces_cost(Scratch& scratch, std::uint32_t u, double reached) const {
-        const std::vector<std::array<Vec3, 3>>& moved_corners = scratch.moved_corners;
-        const std::vector<std::uint32_t>& own = scratch.moved_index;
+    std::optional<double> pieces_cost(std::uint32_t u, double reached) const {
+        const std::vector<std::array<Vec3, 3>>& moved_corners = moved_corners_;
+        const std::vector<std::uint32_t>& own = moved_index_;
         const std::vector<std::uint32_t>& star = vertex_triangles_[u];
         // The contour pieces of u's star move to the nearest changed triangle (their own first).
         // note: only the largest distance counts, so a piece within `reached` of some triangle
@@ -805,20 +777,13 @@ private:
     /// refused whatever the rest).
     /// note: positions never move and the section cache only grows, so a triangle's bound never
     /// changes: the collapses around a vertex meet the same new triangles again and again.
-    double moved_error(Scratch& scratch,
-                       std::uint32_t t,
+    double moved_error(std::uint32_t t,
                        std::uint32_t u,
                        std::uint32_t v,
                        const std::array<Vec3, 3>& after) const {
         const Tri ids = ids_moved(t, u, v);
         if (const double* known = triangle_errors_.find(ids)) {
             return *known;
-        }
-        if (scratch.speculative) {
-            // note: the shared caches are only read while speculating (speculate() merges)
-            const double error = meter_.triangle_error_px(after, ids, scratch.sections);
-            scratch.new_errors.emplace_back(ids, error);
-            return error;
         }
         const double error = meter_.triangle_error_px(after, ids, cache_);
         triangle_errors_.insert(ids, error);
@@ -827,87 +792,6 @@ private:
 
     /// The least cost a waiting candidate may have (floor candidates first: `more_floor` when the
     /// caller holds more of them), or nothing when none waits.
-    /// Whether speculation_[u] holds costs read in u's present surroundings: no star around u
-    /// has changed since (the stamps of u and its neighbours, which every collapse that changes
-    /// a triangle of u's star or beside its edges moves on).
-    bool speculated(std::uint32_t u) const {
-        if (speculation_.empty() || speculation_[u].ring.empty()) {
-            return false;
-        }
-        for (const auto& [w, stamp] : speculation_[u].ring) {
-            if (stamp_[w] != stamp) {
-                return false;
-            }
-        }
-        return true;
-    }
-
-    /// The cost(u, v, false) read ahead (speculated(u) holds), or null when it was not.
-    const std::optional<double>* speculated_cost(std::uint32_t u, std::uint32_t v) const {
-        for (const auto& [w, cost] : speculation_[u].costs) {
-            if (w == v) {
-                return &cost;
-            }
-        }
-        return nullptr;
-    }
-
-    /// Reads cost(x, v, false) of the candidates that pass the topology test, for the next
-    /// vertices x of floor_vertices_ whose costs are not known, on the threads (parts_) at once.
-    /// note: cost() only reads the mesh; the parts read the shared caches and keep what they
-    /// measure, which joins the caches after the batch. A cost read ahead is used only while
-    /// speculated() holds, so the result is the same as without: the parts only save time.
-    void speculate() {
-        std::vector<std::uint32_t> popped;
-        std::vector<std::uint32_t> batch;
-        while (batch.size() < kSpeculationBatch && popped.size() < 4 * kSpeculationBatch &&
-               !floor_vertices_.empty()) {
-            const std::uint32_t x = floor_vertices_.top();
-            floor_vertices_.pop();
-            popped.push_back(x);
-            if (!vertex_triangles_[x].empty() && !speculated(x)) {
-                batch.push_back(x);
-            }
-        }
-        for (const std::uint32_t x : popped) {
-            floor_vertices_.push(x);
-        }
-        for (const std::uint32_t x : batch) {
-            Speculation& s = speculation_[x];
-            s.ring.clear();
-            s.costs.clear();
-            const std::vector<std::uint32_t> nx = neighbours(x);
-            s.ring.emplace_back(x, stamp_[x]);
-            for (const std::uint32_t w : nx) {
-                s.ring.emplace_back(w, stamp_[w]);
-            }
-            for (const std::uint32_t v : nx) {
-                if (topology_allows(x, v)) {
-                    s.costs.emplace_back(v, std::nullopt);
-                }
-            }
-        }
-        const std::size_t parts = std::min(parts_.size(), batch.size());
-        parallel_for(parts, options_.threads, [&](std::size_t part) {
-            Scratch& scratch = parts_[part];
-            for (std::size_t i = part; i < batch.size(); i += parts) {
-                const std::uint32_t x = batch[i];
-                for (auto& [v, c] : speculation_[x].costs) {
-                    c = cost(scratch, x, v, false);
-                }
-            }
-        });
-        for (Scratch& scratch : parts_) {
-            for (const auto& [ids, error] : scratch.new_errors) {
-                if (triangle_errors_.find(ids) == nullptr) {
-                    triangle_errors_.insert(ids, error);
-                }
-            }
-            scratch.new_errors.clear();
-            cache_.absorb(scratch.sections);
-        }
-    }
-
     std::optional<double> waiting_cost(bool more_floor) const {
         if (more_floor || !floor_vertices_.empty()) {
             return options_.error_floor_px;
@@ -921,18 +805,14 @@ private:
     /// Collapses c.u onto c.v if allowed and nothing waiting can be cheaper (lazy evaluation: the
     /// cost is read only now, the sections first, then the contour pieces; a candidate that may
     /// lose to a waiting one is queued again with what is known of its cost). True: collapsed.
-    bool try_collapse(const Candidate& c,
-                      bool more_floor,
-                      const std::optional<double>* speculated = nullptr) {
+    bool try_collapse(const Candidate& c, bool more_floor) {
         if (!topology_allows(c.u, c.v)) {
             return false;
         }
         if (c.stage != Candidate::kExact) {
             const bool sections_known = c.stage == Candidate::kSections;
-            const std::optional<double> known = sections_known ? std::optional<double>(c.cost)
-                                                : speculated != nullptr
-                                                    ? *speculated
-                                                    : cost(main_, c.u, c.v, false);
+            const std::optional<double> known =
+                sections_known ? std::optional<double>(c.cost) : cost(c.u, c.v, false);
             if (!known || *known > options_.max_error_px) {
                 return false;
             }
@@ -942,10 +822,9 @@ private:
                 return false;
             }
             // note: straight after cost(c.u, c.v, false) nothing has changed: only the pieces
-            // remain to be read (a speculated cost left no scratch: read again)
-            const std::optional<double> exact = sections_known || speculated != nullptr
-                                                    ? cost(main_, c.u, c.v, true)
-                                                    : pieces_cost(main_, c.u, *known);
+            // remain to be read
+            const std::optional<double> exact =
+                sections_known ? cost(c.u, c.v, true) : pieces_cost(c.u, *known);
             if (!exact) {
                 return false;
             }
@@ -959,7 +838,7 @@ private:
         }
         // note: folds also depend on the triangles across u's link, which can change without
         // u's stamp moving, so a candidate whose cost was read earlier is checked again
-        if (c.stage == Candidate::kExact && adds_fold(main_, c.u, c.v)) {
+        if (c.stage == Candidate::kExact && adds_fold(c.u, c.v)) {
             return false;
         }
         if (creates_intersection(c.u, c.v)) {
@@ -1068,7 +947,7 @@ private:
                 continue;
             }
             const std::array<Vec3, 3> after = moved(t, u, v);
-            error_[t] = moved_error(main_, t, u, v, after);
+            error_[t] = moved_error(t, u, v, after);
             for (std::uint32_t& w : triangles_[t]) {
                 if (w == u) {
                     w = v;
@@ -1134,11 +1013,14 @@ private:
     /// Per triangle: the contour pieces attached to it (ids into *pieces_), whose distance its
     /// error bound covers.
     std::vector<std::vector<Attached>> triangle_pieces_;
+    mutable std::vector<std::array<Vec3, 3>> moved_corners_;  ///< scratch of cost()
+    mutable std::vector<std::uint32_t> moved_index_;          ///< scratch of cost()
     /// A triangle of the star in folds(), and its normal.
     struct FoldTriangle {
         Tri ids;
         Vec3 normal;
     };
+    mutable std::vector<FoldTriangle> fold_star_;  ///< scratch of folds()
     /// The triangle beside edge ab of u's star (see beside_normal).
     struct Beside {
         std::uint32_t a = kNone;
@@ -1154,6 +1036,7 @@ private:
         std::vector<double> lengths;  ///< their lengths
         std::vector<Beside> beside;
     };
+    mutable StarCache star_cache_;
     /// Collapses applied so far, and the fold count before collapsing `vertex` at `collapses`.
     std::size_t collapses_ = 0;
     struct FoldsBefore {
@@ -1161,32 +1044,7 @@ private:
         std::size_t collapses = 0;
         std::size_t count = 0;
     };
-    /// What cost() and the fold tests write as they go: the main loop's, and one per part of a
-    /// speculative batch (speculate()), which read the shared caches and keep what they add.
-    struct Scratch {
-        explicit Scratch(const CollapseOptions& options)
-            : sections(options.error_floor_px, options.max_error_px) {}
-        std::vector<std::array<Vec3, 3>> moved_corners;  ///< u's star moved onto v (cost())
-        std::vector<std::uint32_t> moved_index;          ///< its index per star triangle
-        std::vector<FoldTriangle> fold_star;             ///< see folds()
-        StarCache star;                                  ///< see refresh_star()
-        FoldsBefore folds_before;                        ///< see adds_fold()
-        bool speculative = false;
-        SectionCache sections;  ///< speculative: what the shared cache_ lacks
-        std::vector<std::pair<Tri, double>> new_errors;  ///< speculative: bounds measured
-    };
-    mutable Scratch main_;
-    mutable std::vector<Scratch> parts_;  ///< see speculate(); empty at one thread
-    /// Costs read ahead by speculate(): the stamps of the vertex and its neighbours then, and
-    /// (v, cost(vertex, v, false)) for the candidates that passed the topology test.
-    struct Speculation {
-        std::vector<std::pair<std::uint32_t, std::uint32_t>> ring;
-        std::vector<std::pair<std::uint32_t, std::optional<double>>> costs;
-    };
-    std::vector<Speculation> speculation_;
-    /// Vertices read ahead at once (each some 6 candidates): a collapse changes the costs
-    /// around it, so only the next few are worth reading.
-    static constexpr std::size_t kSpeculationBatch = 16;
+    mutable FoldsBefore folds_before_;  ///< see adds_fold()
     std::size_t alive_count_ = 0;
     std::vector<Tri> obstacles_;  ///< global ids
     /// Candidates whose cost is read: more than the floor each.
@@ -1209,17 +1067,6 @@ CollapseResult collapse_edges(const CollapseProblem& problem,
         throw Error(ErrorCode::Internal, "edge collapse: no positions");
     }
     Collapser collapser(problem, meter, options);
-    if (resolve_thread_count(options.threads) > 1 && detail::current_pool == nullptr) {
-        // note: speculate() offers its parts to the threads of an enclosing parallel_for; outside
-        // one, an item that does nothing makes one, whose thread then waits for them.
-        CollapseResult result;
-        parallel_for(2, options.threads, [&](std::size_t i) {
-            if (i == 0) {
-                result = collapser.run();
-            }
-        });
-        return result;
-    }
     return collapser.run();
 }
 

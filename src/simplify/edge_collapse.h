@@ -25,10 +25,6 @@ struct CollapseOptions {
     /// the error reads skip everything that cannot exceed it (paper section 7.2). Set it to the
     /// error the piece already has (its inputs' bound), which the result keeps anyway.
     double error_floor_px = 0.0;
-    /// Threads (0: all cores). Above 1, the costs of the candidates waiting next are read ahead
-    /// on threads of the enclosing parallel_for that have nothing else to do; the result is
-    /// the same for any count.
-    unsigned threads = 1;
 };
 
 /// A piece of a closed surface to simplify, plus what it must not run into. Vertex ids index

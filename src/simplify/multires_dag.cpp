@@ -755,7 +755,6 @@ private:
         CollapseOptions collapse;
         collapse.target_triangles = std::size_t(double(before) * options_.keep_fraction);
         collapse.error_floor_px = attempt.children_error;
-        collapse.threads = options_.threads;
         collapse.max_error_px = std::min(
             options_.max_error_px,
             std::max(options_.error_growth * attempt.children_error, attempt.children_error + 0.5));

@@ -466,13 +466,6 @@ double SliceErrorMeter::triangle_error(const std::array<Vec3, 3>& triangle,
             const std::uint32_t b = std::max((*ids)[first], (*ids)[second]);
             const std::uint64_t key = std::uint64_t(a) << 32 | b;
             auto it = cache->bounds_.find(key);
-            if (it == cache->bounds_.end() && cache->base_ != nullptr) {
-                const auto shared = cache->base_->bounds_.find(key);
-                if (shared != cache->base_->bounds_.end()) {
-                    reached = std::max(reached, shared->second);
-                    continue;
-                }
-            }
             if (it == cache->bounds_.end()) {
                 // note: walked from the smaller id's end, so the bound stored does not depend on
                 // which triangle reads the edge first (the walk's pieces depend on its direction).

@@ -23,20 +23,11 @@ public:
         : known_px_(known_px), cutoff_px_(cutoff_px) {}
     double known_px() const { return known_px_; }
     double cutoff_px() const { return cutoff_px_; }
-    /// Also reads the bounds of `base` (same mesh, known_px and cutoff_px), never writes them:
-    /// lets threads share a cache that none writes while they read it. Null: none.
-    void set_base(const SectionCache* base) { base_ = base; }
-    /// Takes over the bounds of `other` that this cache lacks; `other` is left empty.
-    void absorb(SectionCache& other) {
-        bounds_.insert(other.bounds_.begin(), other.bounds_.end());
-        other.bounds_.clear();
-    }
 
 private:
     friend class SliceErrorMeter;
     double known_px_ = 0.0;
     double cutoff_px_ = std::numeric_limits<double>::infinity();
-    const SectionCache* base_ = nullptr;
     std::unordered_map<std::uint64_t, double> bounds_;  ///< key: smaller id << 32 | larger id
 };
 

@@ -20,11 +20,8 @@
 
 #include "contours/extract_contours.h"
 #include "core/error.h"
-#include "core/report.h"
 #include "distance/distance_field.h"
 #include "mesh/tri_mesh.h"
-#include "phantom/catalogue.h"
-#include "pipeline/reconstruct.h"
 #include "simplify/slice_error.h"
 #include "support/cut_error.h"
 
@@ -428,39 +425,6 @@ TEST(CollapseEdges, NeverExceedsTheErrorBound) {
             << max_error_px;
     }
     EXPECT_LT(collapses[0], collapses[1]);
-}
-
-TEST(CollapseEdges, SameResultForAnyThreadCount) {
-    // Above one thread the costs of the candidates waiting next are read ahead on an idle
-    // thread, and used only while nothing around them has changed: the collapses, triangles and
-    // bounds must be those of one thread. A whole torus surface in one piece (no enclosing
-    // parallel_for, as for a label whose level has one group), its own contours as the data.
-    const Phantom phantom = make_phantom("torus");
-    Report report;
-    const Reconstruction r = reconstruct(phantom.stack, ReconstructOptions{}, report);
-    const ObjectSurface& surface = r.surfaces.at(0);
-    const SliceErrorMeter meter(r.contours, r.fields, surface.label, r.slice_spacing_px);
-    CollapseProblem problem;
-    problem.positions = &surface.mesh.positions;
-    problem.triangles = surface.mesh.triangles;
-    problem.triangle_error_px.assign(problem.triangles.size(), surface.contour_deviation_px);
-    std::vector<CollapseResult> results;
-    for (const unsigned threads : {1u, 2u, 3u}) {
-        CollapseOptions options;
-        options.target_triangles = problem.triangles.size() / 8;
-        options.error_floor_px = surface.contour_deviation_px;
-        options.max_error_px = surface.contour_deviation_px + 1.5;
-        options.threads = threads;
-        results.push_back(collapse_edges(problem, meter, options));
-    }
-    EXPECT_GT(results[0].collapses.size(), problem.triangles.size() / 4);
-    for (std::size_t i = 1; i < results.size(); ++i) {
-        SCOPED_TRACE("run " + std::to_string(i));
-        EXPECT_EQ(results[i].collapses, results[0].collapses);
-        EXPECT_EQ(results[i].triangles, results[0].triangles);
-        EXPECT_EQ(results[i].triangle_error_px, results[0].triangle_error_px);
-        EXPECT_EQ(results[i].max_error_px, results[0].max_error_px);
-    }
 }
 
 }  // namespace
