@@ -36,7 +36,7 @@
 #                          (default 1 here): strata build --threads 1, --threads 2 and the
 #                          Slicer pipeline (--threads N), each a whole process under
 #                          /usr/bin/time -v; one table of wall, CPU, peak RSS, strata's stage
-#                          times and the ratios to Slicer's whole process
+#                          times (wall and CPU) and the ratios to Slicer's whole process
 # Needs Debian's python3-numpy, python3-scipy, python3-vtk9 and time (installed here when
 # missing and running as root); PYTHON overrides /usr/bin/python3.
 set -euo pipefail

@@ -45,8 +45,8 @@ strata and the Slicer pipeline read the same file (PNG decoded with zlib: no ima
 
 `cases-table WORK` prints the one-run table of `bench-e2e.sh --cases`: per case, strata build
 at 1 and 2 threads and the Slicer pipeline, each as a whole process (/usr/bin/time -v: wall, CPU
-= user + system, peak RSS), Slicer's pipeline in process, strata's stage times (summary.json),
-and the ratios the issue asks for.
+= user + system, peak RSS), Slicer's pipeline in process, strata's stage times (summary.json:
+wall per stage, and below it a line of CPU per stage), and the ratios the issue asks for.
 
 Needs Debian's python3-numpy, python3-scipy and python3-vtk9.
 Usage: bench_e2e_peer.py phantom OUT_DIR [--dims NX,NY,NZ] [--spacing SX,SY,SZ] [--seed N]
@@ -1040,24 +1040,32 @@ def run_cases_table(args):
             runs = [gnu_time_cpu(p) for p in finished(sorted(d.glob(f"strata_t{t}_*.time")))]
             if not runs:
                 continue
-            stages = [json.loads(p.read_text()).get("timings_s", {})
-                      for p in sorted(d.glob(f"strata_t{t}_*.summary.json"))]
-            keys = list(stages[0]) if stages else []
-            stage_text = " ".join(f"{k} {med([st.get(k, 0.0) for st in stages]):.2f}"
-                                  for k in keys)
+            summaries = [json.loads(p.read_text())
+                         for p in sorted(d.glob(f"strata_t{t}_*.summary.json"))]
+
+            def stage_text(field):
+                stages = [s.get(field, {}) for s in summaries]
+                keys = list(stages[0]) if stages else []
+                return " ".join(f"{k} {med([st.get(k, 0.0) for st in stages]):.2f}"
+                                for k in keys)
+
             wall, cpu, rss = (med([r[i] for r in runs]) for i in range(3))
             walls[t] = wall
-            rows.append((f"strata --threads {t}", wall, cpu, rss, stage_text))
+            rows.append((f"strata --threads {t}", wall, cpu, rss, stage_text("timings_s"),
+                         stage_text("cpu_timings_s")))
         if slicer:
             rows.append((f"Slicer pipeline ({case['slicer_threads']} thr)", v_wall,
                          med([c for _, c, _ in slicer]), v_rss,
-                         f"in process {med([j['pipeline_s'] for j in slicer_json]):.2f}"))
-        for tool, wall, cpu, rss, stages in rows:
+                         f"in process {med([j['pipeline_s'] for j in slicer_json]):.2f}", ""))
+        for tool, wall, cpu, rss, stages, cpu_stages in rows:
             ratio_wall = f"{wall / v_wall:>12.2f}" if slicer else f"{'-':>12}"
             ratio_cpu = f"{cpu / v_cpu:>11.2f}" if slicer else f"{'-':>11}"
             ratio_rss = f"{rss / v_rss:>11.2f}" if slicer else f"{'-':>11}"
             print(f"{case['name']:<12} {tool:<24} {wall:>8.2f} {cpu:>8.2f} {rss:>8.0f} "
                   f"{ratio_wall} {ratio_cpu} {ratio_rss}  {stages}")
+            if cpu_stages:  # summaries before cpu_timings_s have none
+                print(f"{'':<12} {'  CPU stages (s)':<24} {'':>8} {'':>8} {'':>8} "
+                      f"{'':>12} {'':>11} {'':>11}  {cpu_stages}")
         if 1 in walls and 2 in walls:
             notes.append(f"{case['name']}: strata 1 thread / 2 threads = "
                          f"{walls[1] / walls[2]:.2f}x")
@@ -1069,8 +1077,9 @@ def run_cases_table(args):
                  "parsing, VTK flying edges + windowed sinc + normals per label, PLY writing). "
                  "/Slicer: against the Slicer pipeline's whole process (CPU: on a loaded machine the "
                  "steadier measure). stages: strata's "
-                 "summary.json timings_s (wall per stage); Slicer's in-process time excludes "
-                 "python start, parsing and writing.")
+                 "summary.json timings_s (wall per stage); CPU stages: its cpu_timings_s "
+                 "(process CPU, user + system of every thread, per stage); Slicer's in-process "
+                 "time excludes python start, parsing and writing.")
     for note in notes:
         print(textwrap.fill(note, width=100, subsequent_indent="  "))
 

@@ -272,6 +272,11 @@ std::string build_summary_json(const BuildSummary& summary) {
         timings[t.step] = t.seconds;
     }
     j["timings_s"] = timings;
+    Json cpu_timings = Json::object();
+    for (const TimingSummary& t : summary.timings) {
+        cpu_timings[t.step] = t.cpu_seconds;
+    }
+    j["cpu_timings_s"] = cpu_timings;
     j["warnings"] = warnings_json(summary.warnings);
     return j.dump(2) + "\n";
 }

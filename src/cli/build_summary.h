@@ -127,7 +127,8 @@ struct ModelSummary {
 /// Wall time of one step of the build, in the order run.
 struct TimingSummary {
     std::string step;
-    double seconds = 0.0;
+    double seconds = 0.0;      ///< wall time
+    double cpu_seconds = 0.0;  ///< process CPU time (every thread, user + system)
 };
 
 /// Everything `strata build` reports, filled once by run_build.

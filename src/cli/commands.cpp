@@ -19,6 +19,7 @@
 #include "cli/output_folder.h"
 #include "contours/contour_stats.h"
 #include "core/atomic_write.h"
+#include "core/cpu_time.h"
 #include "core/error.h"
 #include "core/file_names.h"
 #include "core/parallel.h"
@@ -300,7 +301,8 @@ LodSummary write_lods(const BuildOptions& options,
 struct BuildInput {
     SliceStack stack;
     Reconstruction result;
-    double input_seconds = 0.0;  ///< reading and cleaning the input
+    double input_seconds = 0.0;      ///< reading and cleaning the input (wall)
+    double input_cpu_seconds = 0.0;  ///< the same, process CPU time
 };
 
 /// Reads the input (a label stack, planar contours or the built-in phantom) and runs the
@@ -309,6 +311,7 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
                                 TerminalProgress& progress,
                                 Report& report) {
     const auto start = Clock::now();
+    const double cpu_start = process_cpu_seconds();
     ReconstructOptions reconstruct_options;
     reconstruct_options.contours.tolerance_px = options.tolerance_px;
     reconstruct_options.threads = options.threads;
@@ -336,6 +339,7 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
         grid.pitch_mm = options.contour_pitch_mm;
         ContourFrame frame = contour_frame(contours, grid, report);
         in.input_seconds = seconds_since(start);
+        in.input_cpu_seconds = process_cpu_seconds() - cpu_start;
         in.result = reconstruct_contours(contours, frame, grid, reconstruct_options, report);
         in.stack = std::move(frame.stack);
     } else {
@@ -349,6 +353,7 @@ BuildInput read_and_reconstruct(const BuildOptions& options,
                               options.color_table, options.labels, progress, report,
                               options.allow_data_file, options.force_label_map);
         in.input_seconds = seconds_since(start);
+        in.input_cpu_seconds = process_cpu_seconds() - cpu_start;
         in.result = reconstruct(in.stack, reconstruct_options, report);
     }
     progress.finish();
@@ -476,6 +481,7 @@ int run_build(const BuildOptions& options) {
     // progressive scene. Each holds only what it writes: the world meshes go once scene.glb is
     // written, before the progressive scene's encodings are made.
     const auto export_start = Clock::now();
+    const double export_cpu_start = process_cpu_seconds();
     std::vector<SceneObject> scene =
         write_surface_meshes(options, stack, result, out, summary, report);
     const SceneInfo info = scene_info(stack);
@@ -550,12 +556,13 @@ int run_build(const BuildOptions& options) {
         summary.lods = write_lods(options, lod_request, progressive, frame, info, out);
     }
     const double export_seconds = seconds_since(export_start);
+    const double export_cpu_seconds = process_cpu_seconds() - export_cpu_start;
 
-    summary.timings.push_back({"input", in.input_seconds});
+    summary.timings.push_back({"input", in.input_seconds, in.input_cpu_seconds});
     for (const StageTiming& t : result.timings) {
-        summary.timings.push_back({t.stage, t.seconds});
+        summary.timings.push_back({t.stage, t.seconds, t.cpu_seconds});
     }
-    summary.timings.push_back({"export", export_seconds});
+    summary.timings.push_back({"export", export_seconds, export_cpu_seconds});
     summary.warnings = report.warnings;
     summary.summary_file = options.output_dir / kSummaryFileName;
     const std::string summary_text = build_summary_json(summary);

@@ -14,6 +14,7 @@
 #include <malloc.h>
 #endif
 
+#include "core/cpu_time.h"
 #include "core/parallel.h"
 #include "mesh/mesh_checks.h"
 #include "mesh/self_intersection.h"
@@ -32,18 +33,23 @@ public:
         const auto now = std::chrono::steady_clock::now();
         const double seconds = std::chrono::duration<double>(now - last_).count();
         last_ = now;
+        const double cpu_now = process_cpu_seconds();
+        const double cpu_seconds = cpu_now - last_cpu_;
+        last_cpu_ = cpu_now;
         for (StageTiming& t : timings_) {
             if (t.stage == stage) {
                 t.seconds += seconds;
+                t.cpu_seconds += cpu_seconds;
                 return;
             }
         }
-        timings_.push_back({std::move(stage), seconds});
+        timings_.push_back({std::move(stage), seconds, cpu_seconds});
     }
 
 private:
     std::vector<StageTiming>& timings_;
     std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+    double last_cpu_ = process_cpu_seconds();
 };
 
 }  // namespace

@@ -54,10 +54,11 @@ struct ReconstructOptions {
     ProgressFn progress;   ///< stage progress (may be empty)
 };
 
-/// Wall time of one stage.
+/// Wall time and process CPU time (every thread, user + system) of one stage.
 struct StageTiming {
     std::string stage;
     double seconds = 0.0;
+    double cpu_seconds = 0.0;
 };
 
 /// Slice spacing in in-plane pixels: the length of the affine's k column over the i column's.

@@ -489,6 +489,7 @@ Reconstruction reconstruct_contours(const PlanarContours& contours,
                 result.timings.push_back(t);
             } else {
                 it->seconds += t.seconds;
+                it->cpu_seconds += t.cpu_seconds;
             }
         }
         const PlaneMap map(roi, frame);

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <sys/resource.h>
+#include <sys/time.h>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -148,6 +150,42 @@ TEST(Cli, DefaultBuildUsesBuiltInPhantomAndWritesSummary) {
         }
     }
     EXPECT_TRUE(written.at("timings_s").contains("triangulate"));
+}
+
+/// CPU time (user + system) of the terminated children this process has waited for.
+double children_cpu_seconds() {
+    rusage usage{};
+    getrusage(RUSAGE_CHILDREN, &usage);
+    const auto seconds = [](const timeval& t) {
+        return double(t.tv_sec) + 1e-6 * double(t.tv_usec);
+    };
+    return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+TEST(Cli, SummaryHasTheCpuTimeOfEveryStage) {
+    const fs::path out = test::fresh_temp_dir("cli_cpu_timings");
+    const double cpu_before = children_cpu_seconds();
+    const CliRun r = run_cli({"build", "-o", out.string(), "--threads", "2", "--quiet"});
+    const double process_cpu = children_cpu_seconds() - cpu_before;
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json written = nlohmann::json::parse(slurp(out / "summary.json"));
+    const auto& wall = written.at("timings_s");
+    const auto& cpu = written.at("cpu_timings_s");
+    // the same stages, in the same order, each with a non-negative CPU time
+    ASSERT_EQ(cpu.size(), wall.size());
+    auto w = wall.begin();
+    double sum = 0.0;
+    for (auto c = cpu.begin(); c != cpu.end(); ++c, ++w) {
+        EXPECT_EQ(c.key(), w.key());
+        EXPECT_GE(c.value().get<double>(), 0.0) << c.key();
+        sum += c.value().get<double>();
+    }
+    for (const char* stage : {"input", "contours", "triangulate", "simplify", "export"}) {
+        EXPECT_TRUE(cpu.contains(stage)) << stage;
+    }
+    // the stages are parts of the process (clock ticks: 10 ms of slack)
+    EXPECT_GT(sum, 0.0);
+    EXPECT_LE(sum, process_cpu + 0.01);
 }
 
 TEST(Cli, MeshFormatOption) {
