@@ -14,7 +14,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
-#include <map>
 #include <string>
 #include <system_error>
 #include <unordered_map>
@@ -196,10 +195,27 @@ std::array<std::uint32_t, 3> canonical(std::array<std::uint32_t, 3> t) {
 /// One object's geometry on its grid, in the file's frame and orientation.
 struct ObjectGrid {
     const MultiresMesh* model = nullptr;
-    std::vector<std::array<float, 3>> points;  ///< per model vertex
-    bool reverse = false;                      ///< triangles reversed (mirroring frame)
+    bool reverse = false;  ///< triangles reversed (mirroring frame)
     double step = 0.0;
+    double slice_spacing_px = 1.0;
+    double flip_x = 1.0;
+    /// Model vertex `v` on the grid (computed where a mesh reads it: no array per object).
+    std::array<float, 3> point(std::uint32_t v) const {
+        return grid_point(model->positions[v], step, slice_spacing_px, flip_x).v;
+    }
 };
+
+ObjectGrid object_grid(const MultiresMesh& model,
+                       const StorageFrame& storage,
+                       const SliceFrame& frame) {
+    ObjectGrid grid;
+    grid.model = &model;
+    grid.step = model.grid_step;
+    grid.reverse = storage.flip_x < 0.0;
+    grid.slice_spacing_px = frame.slice_spacing_px;
+    grid.flip_x = storage.flip_x;
+    return grid;
+}
 
 /// A Draco mesh over some clusters of a model, as encoded, with what its accessors need.
 struct EncodedMesh {
@@ -229,15 +245,21 @@ detail::DracoChunkInput mesh_input(const ObjectGrid& grid,
     };
     detail::DracoChunkInput in;
     in.step = grid.step;
+    in.positions.reserve(vertices.size());
     for (const std::uint32_t v : vertices) {
-        in.positions.push_back(grid.points[v]);
+        in.positions.push_back(grid.point(v));
     }
+    std::vector<std::uint32_t> cluster_local;  // per vertex of a cluster: its local vertex
     for (std::uint32_t k = 0; k < clusters.size(); ++k) {
         const MultiresCluster& cluster = model.clusters[clusters[k]];
+        cluster_local.resize(cluster.vertices.size());
+        for (std::size_t i = 0; i < cluster.vertices.size(); ++i) {
+            cluster_local[i] = local(cluster.vertices[i]);
+        }
         for (const auto& t : cluster.triangles) {
-            const std::uint32_t a = local(cluster.vertices[t[0]]);
-            const std::uint32_t b = local(cluster.vertices[t[1]]);
-            const std::uint32_t c = local(cluster.vertices[t[2]]);
+            const std::uint32_t a = cluster_local[t[0]];
+            const std::uint32_t b = cluster_local[t[1]];
+            const std::uint32_t c = cluster_local[t[2]];
             in.triangles.push_back(grid.reverse ? std::array{a, c, b} : std::array{a, b, c});
             in.triangle_cluster.push_back(k);
         }
@@ -292,14 +314,21 @@ detail::DecodedChunk check_decoded(const EncodedMesh& mesh,
         throw Error(ErrorCode::Internal,
                     where + ": Draco cannot decode its own output: " + e.what());
     }
-    std::map<std::array<float, 3>, std::uint32_t> input_vertex;
+    // the input vertices by position (the first of equal positions: the stable sort keeps the
+    // lowest vertex first), found by binary search
+    using Indexed = std::pair<std::array<float, 3>, std::uint32_t>;
+    std::vector<Indexed> input_vertex(in.positions.size());
     for (std::uint32_t v = 0; v < in.positions.size(); ++v) {
-        input_vertex.emplace(in.positions[v], v);
+        input_vertex[v] = {in.positions[v], v};
     }
+    const auto by_position = [](const Indexed& a, const Indexed& b) { return a.first < b.first; };
+    std::stable_sort(input_vertex.begin(), input_vertex.end(), by_position);
     std::vector<std::uint32_t> vertex_of(d.positions.size());
     for (std::size_t v = 0; v < d.positions.size(); ++v) {
-        const auto it = input_vertex.find(d.positions[v]);
-        if (it == input_vertex.end()) {
+        const Indexed wanted{d.positions[v], 0};
+        const auto it =
+            std::lower_bound(input_vertex.begin(), input_vertex.end(), wanted, by_position);
+        if (it == input_vertex.end() || by_position(wanted, *it)) {
             throw Error(ErrorCode::Internal, where + ": Draco moved a position off the grid");
         }
         vertex_of[v] = it->second;
@@ -533,33 +562,65 @@ struct SharedViews {
     std::vector<PendingObject> objects;
 };
 
-/// One object: its base into `buffer`, its table and chunks into `shared`, its node, mesh,
-/// material into `json`.
+/// The Draco meshes of one object: its group chunks and its base mesh.
+struct EncodedObject {
+    std::vector<EncodedMesh> chunks;  ///< per group
+    EncodedMesh base;
+};
+
+/// Every object's chunks and base mesh (the objects without clusters: none), encoded over the
+/// threads all together: the encodings depend on their own group or base alone, so the bytes
+/// are those of a plain loop.
+std::vector<EncodedObject> encode_objects(const std::vector<ProgressiveObject>& objects,
+                                          const StorageFrame& storage,
+                                          const SliceFrame& frame,
+                                          const ProgressiveOptions& options) {
+    std::vector<EncodedObject> encoded(objects.size());
+    struct Task {
+        std::size_t object;
+        std::size_t group;  ///< the object's group count: its base mesh
+    };
+    std::vector<Task> tasks;
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        const MultiresMesh& model = *objects[o].model;
+        if (model.clusters.empty()) {
+            continue;
+        }
+        encoded[o].chunks.resize(model.groups.size());
+        for (std::size_t g = 0; g <= model.groups.size(); ++g) {
+            tasks.push_back({o, g});
+        }
+    }
+    parallel_for(tasks.size(), options.threads, [&](std::size_t t) {
+        const Task task = tasks[t];
+        const ProgressiveObject& object = objects[task.object];
+        const MultiresMesh& model = *object.model;
+        const ObjectGrid grid = object_grid(model, storage, frame);
+        const std::string name = object_name(object);
+        if (task.group < model.groups.size()) {
+            encoded[task.object].chunks[task.group] = group_chunk(
+                grid, task.group, options, "'" + name + "' group " + std::to_string(task.group));
+        } else {
+            encoded[task.object].base =
+                base_mesh(grid, storage.matrix, model.roots(), options, "'" + name + "' base mesh");
+        }
+    });
+    return encoded;
+}
+
+/// One object, encoded: its base into `buffer`, its table and chunks into `shared`, its node,
+/// mesh, material into `json`.
 void write_object(Json& json,
                   BufferParts& buffer,
                   SharedViews& shared,
                   ProgressiveStats& stats,
                   const ProgressiveObject& object,
-                  const StorageFrame& storage,
-                  const SliceFrame& frame,
-                  const ProgressiveOptions& options) {
+                  EncodedObject&& encoded,
+                  const StorageFrame& storage) {
     const MultiresMesh& model = *object.model;
     const std::string name = object_name(object);
-    ObjectGrid grid;
-    grid.model = &model;
-    grid.step = model.grid_step;
-    grid.reverse = storage.flip_x < 0.0;
-    grid.points.resize(model.positions.size());
-    for (std::size_t v = 0; v < grid.points.size(); ++v) {
-        grid.points[v] =
-            grid_point(model.positions[v], grid.step, frame.slice_spacing_px, storage.flip_x).v;
-    }
-    std::vector<EncodedMesh> chunks(model.groups.size());
-    parallel_for(model.groups.size(), options.threads, [&](std::size_t g) {
-        chunks[g] = group_chunk(grid, g, options, "'" + name + "' group " + std::to_string(g));
-    });
-    const EncodedMesh base =
-        base_mesh(grid, storage.matrix, model.roots(), options, "'" + name + "' base mesh");
+    std::vector<EncodedMesh> chunks = std::move(encoded.chunks);
+    const EncodedMesh base = std::move(encoded.base);
 
     std::vector<double> error_m;
     for (const MultiresGroup& group : model.groups) {
@@ -591,7 +652,7 @@ void write_object(Json& json,
     ext["errors"] = std::move(errors);
     ext["fullResolutionError"] = format::round_up_decimal(
         model.full_resolution_error_px * storage.error_m_per_px, kErrorDigits);
-    ext["gridStep"] = grid.step;
+    ext["gridStep"] = model.grid_step;
     node["extensions"][key(format::kExtension)] = std::move(ext);
     node["extras"] = {{"label", object.label},
                       {"volume_ml", short_decimal(object.volume_ml, kVolumeDecimals)}};
@@ -761,13 +822,15 @@ ProgressiveStats write_progressive_gltf(const std::filesystem::path& path,
     BufferParts buffer;
     SharedViews shared;
     ProgressiveStats stats;
-    for (const ProgressiveObject& object : objects) {
-        if (!object.model->clusters.empty()) {
-            try {
-                write_object(json, buffer, shared, stats, object, storage, frame, options);
-            } catch (const Error& e) {
-                fail(e.code(), path, e.what());
-            }
+    std::vector<EncodedObject> encoded;
+    try {
+        encoded = encode_objects(objects, storage, frame, options);
+    } catch (const Error& e) {
+        fail(e.code(), path, e.what());
+    }
+    for (std::size_t o = 0; o < objects.size(); ++o) {
+        if (!objects[o].model->clusters.empty()) {
+            write_object(json, buffer, shared, stats, objects[o], std::move(encoded[o]), storage);
         }
     }
     try {

@@ -391,15 +391,27 @@ DecodedChunk decode_draco_chunk(std::string_view bytes,
     return out;
 }
 
-std::vector<std::vector<std::uint32_t>> ordered_neighbours(
-    const std::vector<std::array<float, 3>>& positions,
-    const std::vector<std::array<std::uint32_t, 3>>& triangles,
-    const std::vector<bool>& survivor) {
-    std::vector<std::vector<std::uint32_t>> nb(positions.size());
+NeighbourLists ordered_neighbours(const std::vector<std::array<float, 3>>& positions,
+                                  const std::vector<std::array<std::uint32_t, 3>>& triangles,
+                                  const std::vector<bool>& survivor) {
+    const std::size_t n = positions.size();
+    NeighbourLists nb;
+    // every corner gives its vertex the two others: counted, then placed, in triangle order
+    std::vector<std::uint32_t> fill(n + 1, 0);
     for (const auto& t : triangles) {
         for (int i = 0; i < 3; ++i) {
-            nb[t[i]].push_back(t[(i + 1) % 3]);
-            nb[t[i]].push_back(t[(i + 2) % 3]);
+            fill[t[i] + 1] += 2;
+        }
+    }
+    for (std::size_t v = 0; v < n; ++v) {
+        fill[v + 1] += fill[v];
+    }
+    std::vector<std::uint32_t> raw(fill[n]);
+    for (const auto& t : triangles) {
+        for (int i = 0; i < 3; ++i) {
+            std::uint32_t& at = fill[t[i]];
+            raw[at++] = t[(i + 1) % 3];
+            raw[at++] = t[(i + 2) % 3];
         }
     }
     const auto length2 = [&](std::uint32_t a, std::uint32_t b) {
@@ -408,11 +420,17 @@ std::vector<std::vector<std::uint32_t>> ordered_neighbours(
         const double dz = double(positions[b][2]) - double(positions[a][2]);
         return ((dx * dx) + (dy * dy)) + (dz * dz);
     };
-    for (std::uint32_t v = 0; v < nb.size(); ++v) {
-        auto& list = nb[v];
-        std::sort(list.begin(), list.end());
-        list.erase(std::unique(list.begin(), list.end()), list.end());
-        std::sort(list.begin(), list.end(), [&](std::uint32_t a, std::uint32_t b) {
+    nb.start.resize(n + 1);
+    nb.items.reserve(raw.size() / 2);
+    std::uint32_t begin = 0;  // vertex v's raw entries: [begin, fill[v]) after the placing
+    for (std::uint32_t v = 0; v < n; ++v) {
+        nb.start[v] = static_cast<std::uint32_t>(nb.items.size());
+        const auto first = raw.begin() + begin;
+        const auto last = raw.begin() + fill[v];
+        begin = fill[v];
+        std::sort(first, last);
+        const auto list = nb.items.insert(nb.items.end(), first, std::unique(first, last));
+        std::sort(list, nb.items.end(), [&](std::uint32_t a, std::uint32_t b) {
             if (survivor[a] != survivor[b]) {
                 return bool(survivor[a]);
             }
@@ -423,6 +441,7 @@ std::vector<std::vector<std::uint32_t>> ordered_neighbours(
             return positions[a] < positions[b];
         });
     }
+    nb.start[n] = static_cast<std::uint32_t>(nb.items.size());
     return nb;
 }
 
@@ -446,7 +465,8 @@ std::vector<std::uint8_t> encode_slots(const std::vector<std::array<float, 3>>& 
     }
     for (std::size_t i = 0; i < queue.size(); ++i) {
         const std::uint32_t u = queue[i];
-        for (const std::uint32_t w : nb[u]) {
+        for (std::size_t r = 0; r < nb.size(u); ++r) {
+            const std::uint32_t w = nb.at(u, r);
             if (depth[w] == kFar && coarse[w] == coarse[u]) {
                 depth[w] = depth[u] + 1;
                 queue.push_back(w);
@@ -459,12 +479,13 @@ std::vector<std::uint8_t> encode_slots(const std::vector<std::array<float, 3>>& 
             continue;
         }
         std::size_t rank = 0;
-        while (rank < nb[v].size() && rank < 255 &&
-               !(coarse[nb[v][rank]] == coarse[v] && depth[v] != kFar &&
-                 depth[nb[v][rank]] + 1 == depth[v])) {
+        const std::size_t count = nb.size(v);
+        while (rank < count && rank < 255 &&
+               !(coarse[nb.at(v, rank)] == coarse[v] && depth[v] != kFar &&
+                 depth[nb.at(v, rank)] + 1 == depth[v])) {
             ++rank;
         }
-        if (rank >= nb[v].size() || rank >= 255) {
+        if (rank >= count || rank >= 255) {
             throw Error(ErrorCode::Internal,
                         "vertex " + std::to_string(v) +
                             " has no neighbour closer to the vertex it collapses to (slot "
@@ -494,13 +515,13 @@ std::vector<std::uint32_t> resolve_slots(const std::vector<std::array<float, 3>>
                 coarse[u] = u;
                 break;
             }
-            if (slots[u] > nb[u].size()) {
+            if (slots[u] > nb.size(u)) {
                 reject("vertex " + std::to_string(u) + ": _SLOT " + std::to_string(slots[u]) +
-                       ", but it has " + std::to_string(nb[u].size()) + " neighbours");
+                       ", but it has " + std::to_string(nb.size(u)) + " neighbours");
             }
             coarse[u] = kVisiting;
             chain.push_back(u);
-            u = nb[u][slots[u] - 1u];
+            u = nb.at(u, slots[u] - 1u);
         }
         if (coarse[u] == kVisiting) {
             reject("the _SLOT chain from vertex " + std::to_string(v) +

@@ -90,12 +90,20 @@ DecodedChunk decode_draco_chunk(std::string_view bytes,
                                 std::uint32_t cluster_count,
                                 std::size_t max_triangles);
 
+/// Lists of vertices, one per vertex, in one array: vertex v's are items[start[v]] to
+/// items[start[v + 1]] (one allocation for a chunk's neighbours instead of one per vertex).
+struct NeighbourLists {
+    std::vector<std::uint32_t> start;  ///< per vertex, and one past the last
+    std::vector<std::uint32_t> items;
+    std::size_t size(std::uint32_t v) const { return start[v + 1] - start[v]; }
+    std::uint32_t at(std::uint32_t v, std::size_t rank) const { return items[start[v] + rank]; }
+};
+
 /// The neighbours of every vertex, in the format's order (schema/README.md "Neighbour order"):
 /// survivors first, then by squared edge length in binary64, then by position.
-std::vector<std::vector<std::uint32_t>> ordered_neighbours(
-    const std::vector<std::array<float, 3>>& positions,
-    const std::vector<std::array<std::uint32_t, 3>>& triangles,
-    const std::vector<bool>& survivor);
+NeighbourLists ordered_neighbours(const std::vector<std::array<float, 3>>& positions,
+                                  const std::vector<std::array<std::uint32_t, 3>>& triangles,
+                                  const std::vector<bool>& survivor);
 
 /// The `_SLOT` of every vertex given where it collapses (`coarse[v]`, a vertex index; itself for
 /// survivors). \throw Error{Internal} when a collapsed vertex has no neighbour one step closer
