@@ -573,11 +573,13 @@ private:
     /// triangle is another triangle of M or one beside the star (without u, unchanged by the
     /// collapse) around its first end. The piece is an oriented manifold (check_edges, and the
     /// link condition keeps it one), so an edge has at most two triangles.
-    /// Counting stops above `limit` (the count returned is then limit + 1).
+    /// Counting stops above `limit` (the count returned is then limit + 1). `moved_normals`: the
+    /// normals of the moved triangles in star order, when the caller has them (after only).
     std::size_t folds(std::uint32_t u,
                       std::uint32_t v,
                       bool after,
-                      std::size_t limit = std::numeric_limits<std::size_t>::max()) const {
+                      std::size_t limit = std::numeric_limits<std::size_t>::max(),
+                      const std::vector<Vec3>* moved_normals = nullptr) const {
         std::vector<FoldTriangle>& star = fold_star_;
         star.clear();
         refresh_star(u);
@@ -590,6 +592,10 @@ private:
             }
             if (contains(t, v)) {
                 continue;  // removed by the collapse
+            }
+            if (moved_normals != nullptr) {
+                star.push_back({local_moved(t, u, v), (*moved_normals)[star.size()]});
+                continue;
             }
             const std::array<Vec3, 3> c = moved(t, u, v);
             star.push_back({local_moved(t, u, v), normal_of(c[0], c[1], c[2])});
@@ -678,22 +684,31 @@ private:
     /// True when collapsing u onto v adds a fold.
     /// note: the count before does not depend on v and nothing changes between two collapses,
     /// so the candidates of one vertex count it once.
-    bool adds_fold(std::uint32_t u, std::uint32_t v) const {
+    bool adds_fold(std::uint32_t u,
+                   std::uint32_t v,
+                   const std::vector<Vec3>* moved_normals = nullptr) const {
         if (folds_before_.vertex != u || folds_before_.collapses != collapses_) {
             folds_before_ = {u, collapses_, folds(u, v, false)};
         }
-        return folds(u, v, true, folds_before_.count) > folds_before_.count;
+        return folds(u, v, true, folds_before_.count, moved_normals) > folds_before_.count;
     }
 
     /// Cost of collapsing u onto v (max error bound of the changed triangles, with the distances
     /// of the contour pieces they take when `pieces`), or nothing when the collapse folds or
-    /// degenerates a triangle.
-    std::optional<double> cost(std::uint32_t u, std::uint32_t v, bool pieces) const {
+    /// degenerates a triangle. `sections`: the bound of the sections, when an earlier
+    /// cost(u, v, false) read it and u's star has not changed since (only the pieces are read
+    /// then: the triangles' bounds are what it read).
+    std::optional<double> cost(std::uint32_t u,
+                               std::uint32_t v,
+                               bool pieces,
+                               const double* sections = nullptr) const {
         double reached = options_.error_floor_px;
         std::vector<std::array<Vec3, 3>>& moved_corners = moved_corners_;
         moved_corners.clear();
         std::vector<std::uint32_t>& own = moved_index_;  // per star triangle, kNone: removed
         own.clear();
+        std::vector<Vec3>& moved_normals = moved_normals_;
+        moved_normals.clear();
         const std::vector<std::uint32_t>& star = vertex_triangles_[u];
         refresh_star(u);
         // note: every fold is ruled out before any error is read (folds are common, and the
@@ -716,14 +731,18 @@ private:
                 return std::nullopt;
             }
             moved_corners.push_back(after);
+            moved_normals.push_back(n1);
         }
         if (moved_corners.empty()) {
             return std::nullopt;
         }
         // A fold looks like what it is whatever the slice sections say: a collapse may not add
         // one.
-        if (adds_fold(u, v)) {
+        if (adds_fold(u, v, &moved_normals)) {
             return std::nullopt;
+        }
+        if (sections != nullptr) {
+            return pieces_cost(u, *sections);
         }
 
         for (std::size_t i = 0; i < star.size(); ++i) {
@@ -824,7 +843,7 @@ private:
             // note: straight after cost(c.u, c.v, false) nothing has changed: only the pieces
             // remain to be read
             const std::optional<double> exact =
-                sections_known ? cost(c.u, c.v, true) : pieces_cost(c.u, *known);
+                sections_known ? cost(c.u, c.v, true, &c.cost) : pieces_cost(c.u, *known);
             if (!exact) {
                 return false;
             }
@@ -1015,6 +1034,7 @@ private:
     std::vector<std::vector<Attached>> triangle_pieces_;
     mutable std::vector<std::array<Vec3, 3>> moved_corners_;  ///< scratch of cost()
     mutable std::vector<std::uint32_t> moved_index_;          ///< scratch of cost()
+    mutable std::vector<Vec3> moved_normals_;                 ///< scratch of cost()
     /// A triangle of the star in folds(), and its normal.
     struct FoldTriangle {
         Tri ids;
