@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <optional>
 
 #include "mesh/self_intersection.h"
 #include "triangulate/detail/label_surface.h"
@@ -227,15 +228,18 @@ std::map<std::uint32_t, Vec2> LabelSurface::end_lean(const Cdt& cdt,
     const DistanceField* second = has_second ? field(top ? k - 2 : k + 2) : nullptr;
     // Its field covers the label's pixels on its own and the neighbouring slices only; beyond
     // its window a point is outside the label there, at the distance to that slice's rings.
-    const SegmentGrid second_rings =
-        second != nullptr ? SegmentGrid(rings_[top ? k - 2 : k + 2]) : SegmentGrid();
+    // note: built on the first point outside the window only (most ends have none)
+    std::optional<SegmentGrid> second_rings;
     auto second_value = [&](Vec2 q) {
         const double u = (q.x - second->origin_x) / DistanceField::kCellPx;
         const double v = (q.y - second->origin_y) / DistanceField::kCellPx;
         if (u >= 0.0 && v >= 0.0 && u <= second->nx - 1.0 && v <= second->ny - 1.0) {
             return sample_field(second, q);
         }
-        return second_rings.distance(q);
+        if (!second_rings) {
+            second_rings.emplace(rings_[top ? k - 2 : k + 2]);
+        }
+        return second_rings->distance(q);
     };
     const double reach = 2.0;
     for_each_region_ring(k, region, [&](const Ring& ring) {
