@@ -140,8 +140,10 @@ ObjectSurface triangulate_label_with_repairs(const SliceStack& stack,
     // note: a surface with a mismatched slab is replaced, so only the last build (no mismatch
     // left) or the split one is finished; the others stop once a slab mismatches, and the
     // attempts' builds check the slabs' contours only (TriangulateMode)
+    // note: each attempt checks again only the slabs whose rings changed (SlabChecks)
+    SlabChecks checks;
     LabelTriangulation built = triangulate_label(contours, fields, medial_axes, options, label,
-                                                 TriangulateMode::kSurfaceIfMatched);
+                                                 TriangulateMode::kSurfaceIfMatched, &checks);
     if (built.mismatched_slabs.empty()) {
         return std::move(built.surface);
     }
@@ -164,7 +166,7 @@ ObjectSurface triangulate_label_with_repairs(const SliceStack& stack,
             }
         }
         mismatched = triangulate_label(repaired, fields, medial_axes, options, label,
-                                       TriangulateMode::kMismatchesOnly)
+                                       TriangulateMode::kMismatchesOnly, &checks)
                          .mismatched_slabs;
     }
     ObjectSurface surface;

@@ -72,6 +72,28 @@ void LabelSurface::collect_links() {
 /// Exact crossings, touches and overlaps between the contours of slices k and k+1: every such
 /// point is added to the edges it lies on, so both slabs and caps share it.
 void LabelSurface::find_crossings(std::uint32_t k) {
+    SlabCheckMemo* memo = checks_ != nullptr ? checks_->memo_.get() : nullptr;
+    // note: only a build that checks the slabs takes them from checks_: points known exactly
+    // (from an earlier build) can round to other doubles than fresh ones in a surface
+    if (memo != nullptr && mode_ == TriangulateMode::kMismatchesOnly && memo->crossings_known[k] &&
+        same_simplified_[k] && same_simplified_[k + 1]) {
+        for (const SlabCheckMemo::Crossing& hit : memo->crossings[k]) {
+            if (hit.overlap) {
+                overlaps_.push_back({hit.segment, hit.a, hit.b});
+            }
+            for (const Point& p : hit.points) {
+                splits_[k][hit.a[1]][hit.a[2]].push_back(p);
+                splits_[k + 1][hit.b[1]][hit.b[2]].push_back(p);
+            }
+        }
+        return;
+    }
+    std::vector<SlabCheckMemo::Crossing>* record = nullptr;
+    if (memo != nullptr) {
+        memo->crossings_known[k] = true;
+        record = &memo->crossings[k];
+        record->clear();
+    }
     using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 2, std::array<std::uint32_t, 3>>;
     std::array<std::vector<Box>, 2> boxes;
     std::array<std::vector<Segment>, 2> segments;
@@ -114,6 +136,16 @@ void LabelSurface::find_crossings(std::uint32_t k) {
         for (const Point& p : points) {
             splits_[k][a[0]][a[1]].push_back(p);
             splits_[k + 1][b[0]][b[1]].push_back(p);
+        }
+        if (record != nullptr) {
+            SlabCheckMemo::Crossing& entry = record->emplace_back();
+            entry.a = {k, a[0], a[1]};
+            entry.b = {k + 1, b[0], b[1]};
+            entry.points = std::move(points);
+            if (const Segment* s = boost::get<Segment>(&*hit)) {
+                entry.overlap = true;
+                entry.segment = *s;
+            }
         }
     }
 }

@@ -22,6 +22,9 @@
 
 namespace strata {
 
+SlabChecks::SlabChecks() = default;
+SlabChecks::~SlabChecks() = default;
+
 namespace detail {
 
 LabelTriangulation LabelSurface::build() {
@@ -36,9 +39,35 @@ LabelTriangulation LabelSurface::build() {
             splits_[k].emplace_back(all[c].simplified.size());
         }
     }
+    // the simplified contours of each slice as checks_ holds them, and as they are now
+    auto simplified = [&](std::size_t k) {
+        std::vector<std::vector<std::uint32_t>> own;
+        for (std::uint32_t c : label_contours_[k]) {
+            own.push_back(contours_.slices[k].contours[c].simplified);
+        }
+        return own;
+    };
+    if (checks_ != nullptr) {
+        if (!checks_->memo_) {
+            checks_->memo_ = std::make_unique<SlabCheckMemo>();
+        }
+        SlabCheckMemo& memo = *checks_->memo_;
+        memo.crossings.resize(slices);
+        memo.crossings_known.resize(slices, false);
+        memo.simplified.resize(slices);
+        same_simplified_.assign(slices, false);
+        for (std::size_t k = 0; k < slices; ++k) {
+            same_simplified_[k] = memo.simplified[k] == simplified(k);
+        }
+    }
     for (std::uint32_t k = 0; k + 1 < slices; ++k) {
         if (!label_contours_[k].empty() && !label_contours_[k + 1].empty()) {
             find_crossings(k);
+        }
+    }
+    if (checks_ != nullptr) {
+        for (std::size_t k = 0; k < slices; ++k) {
+            checks_->memo_->simplified[k] = simplified(k);
         }
     }
     share_overlap_points();
@@ -115,6 +144,58 @@ void LabelSurface::triangulate_slabs() {
             }
         }
     }
+    const std::size_t before = mismatched_slabs_.size();
+    // the slabs checked, and the mismatched ones of those checked before (checks_)
+    std::vector<std::uint32_t> known;
+    std::vector<std::uint32_t> checked = slabs;
+    if (checks_ != nullptr) {
+        if (!checks_->memo_) {
+            checks_->memo_ = std::make_unique<SlabCheckMemo>();
+        }
+        SlabCheckMemo& memo = *checks_->memo_;
+        memo.mismatched.resize(contours_.slices.size(), -1);
+        memo.rings.resize(contours_.slices.size());
+        if (mode_ == TriangulateMode::kMismatchesOnly) {
+            std::vector<bool> same(rings_.size());
+            for (std::size_t s = 0; s < rings_.size(); ++s) {
+                same[s] = memo.rings[s].size() == rings_[s].size();
+                for (std::size_t c = 0; same[s] && c < rings_[s].size(); ++c) {
+                    same[s] = memo.rings[s][c] == rings_[s][c].points;
+                }
+            }
+            checked.clear();
+            for (const std::uint32_t k : slabs) {
+                if (memo.mismatched[k] >= 0 && same[k] && same[k + 1]) {
+                    if (memo.mismatched[k] == 1) {
+                        known.push_back(k);
+                    }
+                } else {
+                    checked.push_back(k);
+                }
+            }
+        }
+    }
+    run_slabs(checked);
+    if (checks_ != nullptr) {
+        SlabCheckMemo& memo = *checks_->memo_;
+        for (const std::uint32_t k : checked) {
+            memo.mismatched[k] =
+                std::binary_search(mismatched_slabs_.begin() + before, mismatched_slabs_.end(), k);
+        }
+        for (std::size_t s = 0; s < rings_.size(); ++s) {
+            memo.rings[s].resize(rings_[s].size());
+            for (std::size_t c = 0; c < rings_[s].size(); ++c) {
+                memo.rings[s][c] = rings_[s][c].points;
+            }
+        }
+        if (!known.empty()) {
+            mismatched_slabs_.insert(mismatched_slabs_.end(), known.begin(), known.end());
+            std::sort(mismatched_slabs_.begin() + before, mismatched_slabs_.end());
+        }
+    }
+}
+
+void LabelSurface::run_slabs(const std::vector<std::uint32_t>& slabs) {
     if (resolve_thread_count(options_.threads) <= 1 || slabs.size() < 2) {
         for (const std::uint32_t k : slabs) {
             triangulate_slab(k);
@@ -266,9 +347,11 @@ LabelTriangulation triangulate_label(const SliceContours& contours,
                                      const std::vector<MedialAxis>& medial_axes,
                                      const TriangulateOptions& options,
                                      std::uint16_t label,
-                                     TriangulateMode mode) {
+                                     TriangulateMode mode,
+                                     SlabChecks* checks) {
     LabelTriangulation result =
-        detail::LabelSurface(contours, fields, medial_axes, options, label, nullptr, mode).build();
+        detail::LabelSurface(contours, fields, medial_axes, options, label, nullptr, mode, checks)
+            .build();
     result.surface.contour_deviation_px = contour_deviation_px(contours, label);
     return result;
 }

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,27 @@ enum class TriangulateMode {
     kMismatchesOnly,    ///< only the mismatched slabs (the surface is left unfinished)
 };
 
+namespace detail {
+class LabelSurface;
+struct SlabCheckMemo;
+}  // namespace detail
+
+/// What one build of a label leaves for the next build of the same label with some of its
+/// slices' contours changed (the repair attempts, pipeline/repair.cpp): every slab's contour
+/// rings and whether it mismatched. A slab's mismatch is decided from its two slices' rings
+/// alone, so a kMismatchesOnly build does not check again a slab whose rings are unchanged.
+class SlabChecks {
+public:
+    SlabChecks();
+    ~SlabChecks();
+    SlabChecks(const SlabChecks&) = delete;
+    SlabChecks& operator=(const SlabChecks&) = delete;
+
+private:
+    friend class detail::LabelSurface;
+    std::unique_ptr<detail::SlabCheckMemo> memo_;
+};
+
 /// Triangulates one label of the stack (paper section 5) into one closed surface.
 ///
 /// Between slices k and k+1 the surface is the graph, over the symmetric difference of the two
@@ -138,12 +160,15 @@ enum class TriangulateMode {
 /// Output: vertices without duplicates, triangles outward CCW;
 /// `surface.contour_deviation_px` is that of `contours`. Modes other than kSurface leave the
 /// surface unfinished whenever `mismatched_slabs` is not empty (kMismatchesOnly: always).
+/// `checks` (if given) receives every slab's rings and mismatch; in kMismatchesOnly, the slabs
+/// whose rings are those it holds take its mismatch instead of being checked again.
 LabelTriangulation triangulate_label(const SliceContours& contours,
                                      const std::vector<SliceDistanceFields>& fields,
                                      const std::vector<MedialAxis>& medial_axes,
                                      const TriangulateOptions& options,
                                      std::uint16_t label,
-                                     TriangulateMode mode = TriangulateMode::kSurface);
+                                     TriangulateMode mode = TriangulateMode::kSurface,
+                                     SlabChecks* checks = nullptr);
 
 /// The same with every slab k where `split[k]` split at the pixels' AND layer: a level half way
 /// between the slices whose contours are those of the pixels of `label` in both slices of

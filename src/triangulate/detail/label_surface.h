@@ -221,6 +221,27 @@ private:
     std::int64_t ny_ = 0;
 };
 
+/// SlabChecks' content: per slice, per local contour, the ring's points; per slab, whether it
+/// mismatched (-1: not checked).
+struct SlabCheckMemo {
+    std::vector<std::vector<std::vector<Point>>> rings;
+    std::vector<std::int8_t> mismatched;
+    /// One hit of find_crossings: edges a (slice k) and b (slice k+1), each (slice, local
+    /// contour, edge), the points it adds to both, and the overlap segment (overlap true).
+    struct Crossing {
+        std::array<std::uint32_t, 3> a;
+        std::array<std::uint32_t, 3> b;
+        std::vector<Point> points;
+        bool overlap = false;
+        Segment segment;
+    };
+    /// Per slab: find_crossings' hits in order, found on the simplified contours `simplified`
+    /// holds for its two slices (per slice, per local contour); known: found at all.
+    std::vector<std::vector<Crossing>> crossings;
+    std::vector<bool> crossings_known;
+    std::vector<std::vector<std::vector<std::uint32_t>>> simplified;
+};
+
 /// Background links of one slab, each (slice k components, slice k+1 components), sorted.
 using BackgroundLinks =
     std::vector<std::pair<std::vector<std::uint32_t>, std::vector<std::uint32_t>>>;
@@ -233,14 +254,16 @@ public:
                  const TriangulateOptions& options,
                  std::uint16_t label,
                  const std::vector<double>* level_z = nullptr,
-                 TriangulateMode mode = TriangulateMode::kSurface)
+                 TriangulateMode mode = TriangulateMode::kSurface,
+                 SlabChecks* checks = nullptr)
         : contours_(contours),
           fields_(fields),
           medial_axes_(medial_axes),
           options_(options),
           label_(label),
           level_z_(level_z),
-          mode_(mode) {}
+          mode_(mode),
+          checks_(checks) {}
 
     LabelTriangulation build();
 
@@ -255,6 +278,8 @@ private:
     /// Every slab with links, in slab order: on options_.threads threads, each slab built by a
     /// copy of this set-up, its new vertices and triangles appended in slab order (surface.cpp).
     void triangulate_slabs();
+    /// Builds (or checks, by mode_) the slabs `slabs`, in this order (triangulate_slabs).
+    void run_slabs(const std::vector<std::uint32_t>& slabs);
     void triangulate_slab(std::uint32_t k);
     /// Whether p lies inside a face of the surface's domain of slab k (not on an edge).
     bool in_surface_at(const Cdt& cdt, const Point& p, std::uint32_t k) const;
@@ -432,6 +457,10 @@ private:
     /// z of each level when levels are not the slices (split slabs), else null: z = k d.
     const std::vector<double>* level_z_;
     TriangulateMode mode_;
+    /// The slabs' rings and mismatches of the label's previous build (SlabChecks), or null.
+    SlabChecks* checks_;
+    /// Per slice: its simplified contours are those checks_ holds (its slabs' crossings too).
+    std::vector<bool> same_simplified_;
     /// Set once any slab mismatched (kSurfaceIfMatched: the other slabs stop after their check).
     std::atomic<bool>* mismatch_seen_ = nullptr;
 
