@@ -124,7 +124,7 @@ struct ModelSummary {
     ProgressiveStats stats;
 };
 
-/// Wall time of one step of the build, in the order run.
+/// Wall time and process CPU time of one step of the build, in the order run.
 struct TimingSummary {
     std::string step;
     double seconds = 0.0;      ///< wall time

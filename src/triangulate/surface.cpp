@@ -55,19 +55,18 @@ LabelTriangulation LabelSurface::build() {
         memo.crossings.resize(slices);
         memo.crossings_known.resize(slices, false);
         memo.simplified.resize(slices);
+        memo.mismatched.resize(slices, -1);
+        memo.rings.resize(slices);
         same_simplified_.assign(slices, false);
         for (std::size_t k = 0; k < slices; ++k) {
-            same_simplified_[k] = memo.simplified[k] == simplified(k);
+            std::vector<std::vector<std::uint32_t>> now = simplified(k);
+            same_simplified_[k] = memo.simplified[k] == now;
+            memo.simplified[k] = std::move(now);
         }
     }
     for (std::uint32_t k = 0; k + 1 < slices; ++k) {
         if (!label_contours_[k].empty() && !label_contours_[k + 1].empty()) {
             find_crossings(k);
-        }
-    }
-    if (checks_ != nullptr) {
-        for (std::size_t k = 0; k < slices; ++k) {
-            checks_->memo_->simplified[k] = simplified(k);
         }
     }
     share_overlap_points();
@@ -148,13 +147,9 @@ void LabelSurface::triangulate_slabs() {
     // the slabs checked, and the mismatched ones of those checked before (checks_)
     std::vector<std::uint32_t> known;
     std::vector<std::uint32_t> checked = slabs;
+    // note: build() made checks_'s memo and sized it
     if (checks_ != nullptr) {
-        if (!checks_->memo_) {
-            checks_->memo_ = std::make_unique<SlabCheckMemo>();
-        }
-        SlabCheckMemo& memo = *checks_->memo_;
-        memo.mismatched.resize(contours_.slices.size(), -1);
-        memo.rings.resize(contours_.slices.size());
+        const SlabCheckMemo& memo = *checks_->memo_;
         if (mode_ == TriangulateMode::kMismatchesOnly) {
             std::vector<bool> same(rings_.size());
             for (std::size_t s = 0; s < rings_.size(); ++s) {
